@@ -1,0 +1,1 @@
+"""Datasets of impact recordings, their preprocessing, and the profile banks built from them."""

@@ -1,0 +1,223 @@
+"""The on-disk dataset format (version 1) and its lazy reader and atomic writer.
+
+A dataset is a directory::
+
+    dataset.json                 metadata: rate, window length, sensor, provenance, objects
+    raw/<object>.npz             velocities_mps (V,), accel_g (V, D, N, 3): every drop, 3 axes, g
+    banks/<reducer>/<object>.npz velocities_mps (V,), profiles_g (V, N), representative (V,) int
+
+Arrays are plain ``.npz`` read with ``allow_pickle=False``. Reading is lazy: a
+scene that uses one object reads only that object's files. ``builtin:NAME``
+names a dataset shipped inside the package (``hapticfx/datasets/NAME``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+import threading
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DatasetError
+from ..objects import ObjectInfo
+from .bank import ProfileBank
+
+FORMAT = "hapticfx-dataset"
+VERSION = 1
+BUILTIN_PREFIX = "builtin:"
+BUILTIN_DIR = Path(__file__).resolve().parent.parent / "datasets"
+
+
+def resolve_dataset_path(ref: str | os.PathLike, *, relative_to: Path | None = None) -> Path:
+    """The directory a dataset reference names (``builtin:NAME`` or a path)."""
+    text = str(ref)
+    if text.startswith(BUILTIN_PREFIX):
+        name = text[len(BUILTIN_PREFIX):]
+        path = BUILTIN_DIR / name
+        if not (path / "dataset.json").is_file():
+            known = sorted(p.name for p in BUILTIN_DIR.glob("*") if (p / "dataset.json").is_file()) if BUILTIN_DIR.is_dir() else []
+            raise DatasetError(f"no built-in dataset {name!r}; built-in: {', '.join(known) or 'none'}")
+        return path
+    path = Path(text).expanduser()
+    if not path.is_absolute() and relative_to is not None:
+        path = relative_to / path
+    return path
+
+
+@dataclass
+class Dataset:
+    """A dataset directory, read lazily. Use :func:`open_dataset`."""
+
+    path: Path
+    meta: dict
+    _banks: dict = field(default_factory=dict, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    @property
+    def name(self) -> str:
+        return self.meta.get("name", self.path.name)
+
+    @property
+    def rate_hz(self) -> float:
+        return float(self.meta["rate_hz"])
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.meta["n_samples"])
+
+    @property
+    def objects(self) -> list[str]:
+        return list(self.meta["objects"])
+
+    def object_info(self, object_id: str) -> ObjectInfo:
+        o = self._object_meta(object_id)
+        return ObjectInfo(
+            object_id,
+            o.get("name", object_id),
+            float(o["mass_kg"]),
+            tuple(o.get("dimensions_mm", (0.0, 0.0, 0.0))),
+            o.get("material", "unknown"),
+        )
+
+    def reducers(self) -> list[str]:
+        banks = self.path / "banks"
+        return sorted(p.name for p in banks.iterdir() if p.is_dir()) if banks.is_dir() else []
+
+    def _object_meta(self, object_id: str) -> dict:
+        try:
+            return self.meta["objects"][object_id]
+        except KeyError:
+            raise DatasetError(
+                f"dataset {self.name!r} has no object {object_id!r}; it has: {', '.join(self.objects)}"
+            ) from None
+
+    def bank(self, object_id: str, reducer: str) -> ProfileBank:
+        """The representative-profile bank of one object under one reducer (cached)."""
+        self._object_meta(object_id)
+        key = (object_id, reducer)
+        with self._lock:
+            if key not in self._banks:
+                file = self.path / "banks" / reducer / f"{object_id}.npz"
+                if not file.is_file():
+                    raise DatasetError(
+                        f"{file}: missing; dataset {self.name!r} has banks for: {', '.join(self.reducers()) or 'none'}"
+                    )
+                arrays = load_npz(file, ("velocities_mps", "profiles_g"))
+                try:
+                    self._banks[key] = ProfileBank(
+                        object_id, reducer, self.rate_hz, arrays["velocities_mps"], arrays["profiles_g"]
+                    )
+                except Exception as exc:
+                    raise DatasetError(f"{file}: corrupt bank: {exc}") from exc
+            return self._banks[key]
+
+    def raw(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
+        """All drops of one object: ``velocities (V,)`` and ``accel_g (V, D, N, 3)``."""
+        self._object_meta(object_id)
+        file = self.path / "raw" / f"{object_id}.npz"
+        arrays = load_npz(file, ("velocities_mps", "accel_g"))
+        acc = arrays["accel_g"]
+        if acc.ndim != 4 or acc.shape[-1] != 3 or acc.shape[0] != arrays["velocities_mps"].shape[0]:
+            raise DatasetError(f"{file}: accel_g must have shape (V, drops, N, 3), got {acc.shape}")
+        return arrays["velocities_mps"].astype(np.float64), acc.astype(np.float64)
+
+
+def load_npz(file: Path, required: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Read an ``.npz`` without pickle; a missing or corrupt file is a :class:`DatasetError`."""
+    if not file.is_file():
+        raise DatasetError(f"{file}: file not found")
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            missing = [k for k in required if k not in z.files]
+            if missing:
+                raise DatasetError(f"{file}: missing array(s) {', '.join(missing)}; has {', '.join(z.files)}")
+            return {k: z[k] for k in z.files}
+    except DatasetError:
+        raise
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise DatasetError(f"{file}: corrupt or unreadable ({exc})") from exc
+
+
+def open_dataset(ref: str | os.PathLike, *, relative_to: Path | None = None) -> Dataset:
+    """Open a dataset by path or ``builtin:NAME``; reads only its metadata."""
+    path = resolve_dataset_path(ref, relative_to=relative_to)
+    meta_file = path / "dataset.json"
+    if not meta_file.is_file():
+        raise DatasetError(f"{path}: not a hapticfx dataset (no dataset.json)")
+    try:
+        meta = json.loads(meta_file.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DatasetError(f"{meta_file}: corrupt metadata ({exc})") from exc
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise DatasetError(f"{meta_file}: not a {FORMAT} file")
+    if meta.get("version") != VERSION:
+        raise DatasetError(f"{meta_file}: format version {meta.get('version')!r}; this hapticfx reads version {VERSION}")
+    for key in ("rate_hz", "n_samples", "objects"):
+        if key not in meta:
+            raise DatasetError(f"{meta_file}: missing key {key!r}")
+    return Dataset(path, meta)
+
+
+class DatasetWriter:
+    """Writes a dataset into a temporary directory and moves it into place on success.
+
+    Use as a context manager: if the block raises, nothing is left behind.
+    """
+
+    def __init__(self, out: Path, *, name: str, rate_hz: float, n_samples: int, overwrite: bool = False, **meta):
+        self.out = Path(out)
+        self.overwrite = overwrite
+        self.meta = {
+            "format": FORMAT, "version": VERSION, "name": name,
+            "rate_hz": float(rate_hz), "n_samples": int(n_samples), "objects": {}, **meta,
+        }
+        self.tmp: Path | None = None
+
+    def __enter__(self) -> "DatasetWriter":
+        if self.out.exists() and not self.overwrite:
+            raise DatasetError(f"{self.out}: already exists (use --force to replace it)")
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", dir=self.out.parent))
+        return self
+
+    def add_object(self, info: ObjectInfo, **extra) -> None:
+        self.meta["objects"][info.id] = {
+            "name": info.name, "mass_kg": info.mass_kg,
+            "dimensions_mm": list(info.dimensions_mm), "material": info.material, **extra,
+        }
+
+    def write_raw(self, object_id: str, velocities: np.ndarray, accel_g: np.ndarray) -> None:
+        self._save(self.tmp / "raw" / f"{object_id}.npz", velocities_mps=np.asarray(velocities, np.float64),
+                   accel_g=np.asarray(accel_g, np.float32))
+
+    def write_bank(self, reducer: str, object_id: str, velocities, profiles, representative=None) -> None:
+        v = np.asarray(velocities, np.float64)
+        rep = np.zeros(v.shape, np.int64) if representative is None else np.asarray(representative, np.int64)
+        self._save(self.tmp / "banks" / reducer / f"{object_id}.npz", velocities_mps=v,
+                   profiles_g=np.asarray(profiles, np.float64), representative=rep)
+
+    @staticmethod
+    def _save(file: Path, **arrays) -> None:
+        file.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(file, **arrays)
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            return False
+        (self.tmp / "dataset.json").write_text(json.dumps(self.meta, indent=2, sort_keys=True) + "\n")
+        if self.out.exists():
+            backup = self.out.with_name(f".{self.out.name}.old")
+            shutil.rmtree(backup, ignore_errors=True)
+            os.replace(self.out, backup)
+            os.replace(self.tmp, self.out)
+            shutil.rmtree(backup, ignore_errors=True)
+        else:
+            os.replace(self.tmp, self.out)
+        return False

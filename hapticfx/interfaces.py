@@ -1,0 +1,167 @@
+"""The four interfaces of hapticfx: Reducer, Interpolator, Model, Actuator.
+
+Plugins implement these and register factories for them through the hooks in
+:mod:`hapticfx.hookspecs`. Arrays follow one convention: float64, time on the
+last axis, accelerations in g, profiles at the bank's rate (1 kHz by default).
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
+
+import numpy as np
+
+from .signal import Signal, valid_number, valid_velocity
+
+if TYPE_CHECKING:
+    from .data.bank import ProfileBank
+
+
+@dataclass(frozen=True)
+class Impact:
+    """One collision event: which object, how fast, when, on which channel."""
+
+    object: str
+    velocity: float
+    time_s: float = 0.0
+    channel: int | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "velocity", valid_velocity(self.velocity))
+        object.__setattr__(self, "time_s", valid_number(self.time_s, name="time_s"))
+
+
+class Profile(NamedTuple):
+    """A recorded 1D impact profile and the velocity it was recorded at."""
+
+    velocity: float
+    samples: np.ndarray
+
+
+class Reducer(abc.ABC):
+    """Reduces 3-axis accelerations ``(..., N, 3)`` to one axis ``(..., N)``."""
+
+    name: ClassVar[str]
+
+    @abc.abstractmethod
+    def reduce(self, xyz: np.ndarray) -> np.ndarray:
+        """Return the 1D signal for each 3-axis recording in ``xyz``."""
+
+
+class Interpolator(abc.ABC):
+    """Predicts the profile at ``velocity`` from its two recorded neighbours."""
+
+    name: ClassVar[str]
+
+    def fit(self, bank: "ProfileBank", **options) -> dict:
+        """Learn from a bank; returns a summary (losses, epochs). Default: nothing to learn."""
+        return {}
+
+    @abc.abstractmethod
+    def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
+        """Return the profile at ``velocity`` (``lower.velocity <= velocity <= upper.velocity``)."""
+
+    def save(self, path: Path) -> None:
+        """Write learnt state to ``path``. Default: nothing to save."""
+
+    def load(self, path: Path) -> None:
+        """Read learnt state from ``path``. Default: nothing to load."""
+
+
+class Model(abc.ABC):
+    """Renders what one impact feels like: a 1D acceleration signal in g."""
+
+    name: ClassVar[str]
+
+    @abc.abstractmethod
+    def render(self, impact: Impact) -> Signal:
+        """Return the impact profile for ``impact``."""
+
+    def describe(self) -> dict:
+        """What this model loaded (for ``hapticfx info``)."""
+        return {"model": self.name}
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """Hard output limits for one actuator, in units of its full range.
+
+    ``peak`` and ``rms`` are fractions of full scale; ``rms_window_s`` is the
+    sliding window for the RMS limit. ``max_on_s`` and ``max_duty`` apply to
+    actuators that take pulses rather than waveforms (a solenoid).
+    """
+
+    peak: float = 1.0
+    rms: float = 0.7
+    rms_window_s: float = 0.05
+    max_on_s: float | None = None
+    max_duty: float | None = None
+    duty_window_s: float = 10.0
+
+    def lowered(self, **changes) -> "SafetyLimits":
+        """Return limits with ``changes`` applied; a change may only make a limit stricter."""
+        from .errors import EffectError
+
+        values = {}
+        for key, new in changes.items():
+            if new is None:
+                continue
+            if key not in self.__dataclass_fields__:
+                raise EffectError(f"unknown safety limit {key!r}; allowed: {', '.join(self.__dataclass_fields__)}")
+            old = getattr(self, key)
+            strict_is_smaller = key != "rms_window_s"
+            if old is not None and ((new > old) if strict_is_smaller else (new < old)):
+                raise EffectError(
+                    f"{key} {new} would raise the actuator's hard limit {old}; an effect can only lower limits"
+                )
+            values[key] = new
+        return SafetyLimits(**{**self.__dict__, **values})
+
+
+@dataclass(frozen=True)
+class ActuatorSpec:
+    """What an actuator can do: rate, output range, band, waveform support, hard limits."""
+
+    rate_hz: float
+    volts_peak: float
+    band_hz: tuple[float, float]
+    waveform: bool = True
+    limits: SafetyLimits = field(default_factory=SafetyLimits)
+    default_gain: float = 1.0
+
+
+class Actuator(abc.ABC):
+    """An output device. Takes signals normalised to [-1, 1] of its full range.
+
+    Use as a context manager (``with actuator: actuator.play(signal)``).
+    ``play`` receives the signal after shaping and the safety limiter, at
+    ``spec.rate_hz``.
+    """
+
+    name: ClassVar[str]
+    spec: ActuatorSpec
+
+    def open(self) -> None:
+        """Acquire the device. Raises :class:`hapticfx.errors.DeviceError` if it is absent."""
+
+    @abc.abstractmethod
+    def play(self, signal: Signal) -> None:
+        """Output one (already limited) signal."""
+
+    def close(self) -> None:
+        """Release the device."""
+
+    def describe(self) -> str:
+        """Where the output goes, in a few words."""
+        return self.name
+
+    def __enter__(self):
+        self.open()
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False

@@ -1,0 +1,89 @@
+"""`Signal`, the value that flows between stages, and the validation gate."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SignalError
+
+
+def valid_signal(samples, *, name: str = "signal", ndim: int | tuple[int, ...] | None = None) -> np.ndarray:
+    """Return ``samples`` as a float64 array, or raise :class:`SignalError`.
+
+    The one gate every public entry point goes through: a real floating or
+    integer dtype (no complex, no object), finite values, and (when given)
+    the number of dimensions. Time is the last axis.
+    """
+    arr = np.asarray(samples)
+    if arr.dtype.kind not in "fiu":
+        raise SignalError(f"{name} must be real numbers, got dtype {arr.dtype}")
+    if ndim is not None:
+        allowed = (ndim,) if isinstance(ndim, int) else ndim
+        if arr.ndim not in allowed:
+            raise SignalError(f"{name} must have {' or '.join(map(str, allowed))} dimension(s), got shape {arr.shape}")
+    if arr.ndim == 0 or arr.shape[-1] == 0:
+        raise SignalError(f"{name} is empty (shape {arr.shape})")
+    arr = arr.astype(np.float64, copy=False)
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.count_nonzero(~np.isfinite(arr)))
+        raise SignalError(f"{name} has {bad} non-finite value(s) (NaN or infinity)")
+    return arr
+
+
+def valid_number(value, *, name: str, minimum: float | None = None, maximum: float | None = None) -> float:
+    """Return ``value`` as a finite float within [minimum, maximum], or raise :class:`SignalError`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise SignalError(f"{name} must be a number, got {type(value).__name__} {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise SignalError(f"{name} must be finite, got {v}")
+    if minimum is not None and v < minimum:
+        raise SignalError(f"{name} must be >= {minimum}, got {v}")
+    if maximum is not None and v > maximum:
+        raise SignalError(f"{name} must be <= {maximum}, got {v}")
+    return v
+
+
+def valid_velocity(value) -> float:
+    """An impact velocity in m/s: finite and not negative."""
+    return valid_number(value, name="velocity", minimum=0.0)
+
+
+@dataclass(frozen=True)
+class Signal:
+    """Samples on a uniform time grid: float64, time on the last axis, rate in Hz."""
+
+    samples: np.ndarray
+    rate_hz: float
+
+    def __post_init__(self):
+        arr = valid_signal(self.samples, name="Signal.samples", ndim=(1, 2))
+        rate = valid_number(self.rate_hz, name="Signal.rate_hz")
+        if rate <= 0:
+            raise SignalError(f"Signal.rate_hz must be > 0, got {rate}")
+        arr = np.array(arr, dtype=np.float64, copy=True)
+        arr.setflags(write=False)
+        object.__setattr__(self, "samples", arr)
+        object.__setattr__(self, "rate_hz", rate)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.samples.shape[-1])
+
+    @property
+    def duration_s(self) -> float:
+        return self.n_samples / self.rate_hz
+
+    @property
+    def peak(self) -> float:
+        return float(np.max(np.abs(self.samples)))
+
+    def times(self) -> np.ndarray:
+        """Sample times in seconds."""
+        return np.arange(self.n_samples) / self.rate_hz
+
+    def with_samples(self, samples) -> "Signal":
+        return Signal(samples, self.rate_hz)
