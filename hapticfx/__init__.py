@@ -8,7 +8,16 @@ from .interfaces import Actuator, ActuatorSpec, Impact, Interpolator, Model, Pro
 from .signal import Signal, valid_signal
 
 __all__ = [
-    "Actuator", "ActuatorSpec", "HapticfxError", "Impact", "Interpolator", "Model", "Profile",
+    "Actuator", "ActuatorSpec", "Engine", "HapticfxError", "Impact", "Interpolator", "Model", "Profile",
     "Reducer", "SafetyLimits", "Signal", "valid_signal",
 ]
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    # Engine pulls in threads and the pipeline; import it only when asked for.
+    if name == "Engine":
+        from .engine import Engine
+
+        return Engine
+    raise AttributeError(f"module 'hapticfx' has no attribute {name!r}")

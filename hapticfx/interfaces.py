@@ -18,6 +18,7 @@ from .signal import Signal, valid_number, valid_velocity
 
 if TYPE_CHECKING:
     from .data.bank import ProfileBank
+    from .data.dataset import Dataset
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,12 @@ class Interpolator(abc.ABC):
     def fit(self, bank: "ProfileBank", **options) -> dict:
         """Learn from a bank; returns a summary (losses, epochs). Default: nothing to learn."""
         return {}
+
+    def prepare(self, bank: "ProfileBank", *, dataset: "Dataset | None" = None, base_dir: Path | None = None) -> None:
+        """Called once per bank when an effect loads, before any ``interpolate``: load weights, fill caches.
+
+        ``base_dir`` is the effect file's directory, for relative paths in the options.
+        """
 
     @abc.abstractmethod
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
@@ -150,6 +157,9 @@ class Actuator(abc.ABC):
     @abc.abstractmethod
     def play(self, signal: Signal) -> None:
         """Output one (already limited) signal."""
+
+    def wait(self, timeout: float | None = None) -> None:
+        """Block until everything played so far has reached the device. Default: play is synchronous."""
 
     def close(self) -> None:
         """Release the device."""

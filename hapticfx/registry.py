@@ -22,7 +22,7 @@ from .errors import PluginError
 
 KINDS = ("reducer", "interpolator", "model", "actuator")
 ALLOW_ENV = "HAPTICFX_PLUGINS"
-BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data")
+BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data", "hapticfx.builtins.physics", "hapticfx.builtins.scene")
 ENTRY_POINT_GROUP = "hapticfx"
 
 
@@ -127,7 +127,7 @@ class Registry:
     def _collect(self, kind: str) -> None:
         caller = getattr(self.pm.hook, f"register_{kind}s")
         for impl in caller.get_hookimpls():
-            info = self.plugins.get(impl.plugin_name, PluginInfo(impl.plugin_name, "?", "?"))
+            info = self.plugins.get(impl.plugin_name, PluginInfo(impl.plugin_name, "registered at run time", "-"))
 
             def register(name: str, factory: Any, _info=info, _kind=kind) -> None:
                 self._add(_kind, name, factory, _info)

@@ -6,6 +6,11 @@ A dataset is a directory::
     raw/<object>.npz             velocities_mps (V,), accel_g (V, D, N, 3): every drop, 3 axes, g
     banks/<reducer>/<object>.npz velocities_mps (V,), profiles_g (V, N), representative (V,) int
 
+Optional metadata written by :func:`hapticfx.data.build.build_dataset`:
+``raw_rate_hz`` (rate of ``raw/``), ``preprocessing`` (the chain's parameters),
+``sensor``, ``provenance`` and, per object, ``representative`` (``chosen``,
+``automatic`` and manual ``overrides``). See docs/data.md.
+
 Arrays are plain ``.npz`` read with ``allow_pickle=False``. Reading is lazy: a
 scene that uses one object reads only that object's files. ``builtin:NAME``
 names a dataset shipped inside the package (``hapticfx/datasets/NAME``).
@@ -117,6 +122,26 @@ class Dataset:
                     raise DatasetError(f"{file}: corrupt bank: {exc}") from exc
             return self._banks[key]
 
+    @property
+    def raw_rate_hz(self) -> float:
+        """Sample rate of the raw recordings (the bank rate when not recorded separately)."""
+        return float(self.meta.get("raw_rate_hz", self.meta["rate_hz"]))
+
+    def representatives(self, object_id: str) -> dict:
+        """The representative drop per velocity: ``chosen``, ``automatic``, ``overrides``."""
+        rep = self._object_meta(object_id).get("representative")
+        if rep is None:
+            raise DatasetError(f"dataset {self.name!r}: object {object_id!r} records no representative drops")
+        return rep
+
+    def windows(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
+        """All drops of one object preprocessed as the banks were: ``velocities (V,)``, ``(V, D, n_samples, 3)``."""
+        from .preprocess import Preprocessing, preprocess
+
+        velocities, accel = self.raw(object_id)
+        params = Preprocessing.from_dict(self.meta.get("preprocessing", {}))
+        return velocities, preprocess(accel, self.raw_rate_hz, params=params)
+
     def raw(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
         """All drops of one object: ``velocities (V,)`` and ``accel_g (V, D, N, 3)``."""
         self._object_meta(object_id)
@@ -184,6 +209,10 @@ class DatasetWriter:
             raise DatasetError(f"{self.out}: already exists (use --force to replace it)")
         self.out.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", dir=self.out.parent))
+        # mkdtemp makes the directory private (0700); a dataset is as readable as any new directory.
+        umask = os.umask(0o022)
+        os.umask(umask)
+        os.chmod(self.tmp, 0o777 & ~umask)
         return self
 
     def add_object(self, info: ObjectInfo, **extra) -> None:

@@ -1,0 +1,1 @@
+"""Built-in actuators: a WAV file and memory (for tests and embedding)."""

@@ -1,0 +1,31 @@
+"""Built-in core plugin: the models, interpolator, actuators and commands every install has."""
+
+from __future__ import annotations
+
+from ..hookspecs import hookimpl
+from ..registry import lazy
+
+
+@hookimpl
+def register_models(register):
+    register("kinetic-energy", lazy("hapticfx.models.kinetic:KineticEnergyModel"))
+    register("data-driven", lazy("hapticfx.models.datadriven:DataDrivenModel"))
+
+
+@hookimpl
+def register_interpolators(register):
+    register("linear", lazy("hapticfx.interpolators.linear:LinearInterpolator"))
+
+
+@hookimpl
+def register_actuators(register):
+    register("wav", lazy("hapticfx.actuators.virtual:WavActuator"))
+    register("memory", lazy("hapticfx.actuators.virtual:MemoryActuator"))
+
+
+@hookimpl
+def register_commands(app, bench):
+    from ..cli import commands, bench_render
+
+    commands.register(app)
+    bench_render.register(bench)

@@ -1,0 +1,16 @@
+"""Built-in physics plugin of hapticfx: the ``contact`` model, ``data synth`` and ``bench contact``."""
+
+from ..hookspecs import hookimpl
+from ..registry import lazy
+
+
+@hookimpl
+def register_models(register):
+    register("contact", lazy("hapticfx.models.contact:ContactModel"))
+
+
+@hookimpl
+def register_commands(bench, data):
+    from ..data.physics_commands import register
+
+    register(bench, data)

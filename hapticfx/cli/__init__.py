@@ -1,0 +1,78 @@
+"""The ``hapticfx`` command line. Commands come from plugins through ``register_commands``."""
+
+from __future__ import annotations
+
+import sys
+import traceback
+
+import importlib
+
+import typer
+
+from ..errors import HapticfxError
+
+HELP = """Haptic impact effects: render and play what a falling object feels like.
+
+Try `hapticfx play effects/falling_brick.yaml`. Add --debug before the command to see
+tracebacks. Docs: docs/ in the source tree.
+"""
+
+
+def build_app() -> typer.Typer:
+    """The root app with the ``bench`` and ``data`` groups, filled by every plugin's hook."""
+    from ..registry import get_registry
+
+    app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+                      rich_markup_mode=None)
+    bench = typer.Typer(help="Measure speed and accuracy; prints tables (median, spread, ratios).",
+                        no_args_is_help=True)
+    data = typer.Typer(help="Record, import, synthesise, inspect and plot impact datasets.", no_args_is_help=True)
+    app.add_typer(bench, name="bench")
+    app.add_typer(data, name="data")
+
+    @app.callback()
+    def root(debug: bool = typer.Option(False, "--debug", help="Show the traceback of errors.")):
+        """hapticfx."""
+
+    get_registry().pm.hook.register_commands(app=app, bench=bench, data=data)
+    return app
+
+
+def _click_errors() -> tuple[type, ...]:
+    """ClickException classes: typer >= 0.26 bundles its own click, older typer uses click's."""
+    found = []
+    for name in ("typer._click.exceptions", "click.exceptions"):
+        try:
+            found.append(importlib.import_module(name).ClickException)
+        except (ImportError, AttributeError):
+            continue
+    return tuple(found)
+
+
+def error(message: str) -> None:
+    """Print one error line to stderr."""
+    typer.echo(f"hapticfx: error: {message}", err=True)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point: domain errors become one line and exit code 2 (raises SystemExit)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    try:
+        command = typer.main.get_command(build_app())
+        result = command.main(args=argv, prog_name="hapticfx", standalone_mode=False)
+        code = result if isinstance(result, int) else 0
+    except HapticfxError as exc:
+        if debug:
+            traceback.print_exc()
+        error(str(exc))
+        code = 2
+    except typer.Exit as exc:
+        code = exc.exit_code
+    except typer.Abort:
+        typer.echo("aborted", err=True)
+        code = 130
+    except _click_errors() as exc:  # usage errors: click prints them in its own format
+        exc.show()
+        code = 2
+    sys.exit(code)

@@ -1,0 +1,163 @@
+"""Core commands: play, render, validate, info, plugins, schema."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import DeviceError, HapticfxError
+
+VELOCITY_HELP = "Impact velocity in m/s (default: the effect's velocity_mps)."
+OBJECT_HELP = "Object id (default: the effect's object)."
+
+
+def _device(value: Optional[str]):
+    """A --device value: an index when it is a number, else a name or wav:PATH / memory."""
+    if value is None:
+        return None
+    return int(value) if value.strip().isdigit() else value
+
+
+def _write_outputs(pipeline, delivery, out: Path) -> list[Path]:
+    """Write a delivery to ``out`` by its suffix (.wav, .csv, .png); returns what was written."""
+    from ..actuators.files import write_csv, write_wav
+    from .figures import impact_png
+
+    suffix = out.suffix.lower()
+    if suffix == ".wav":
+        return [write_wav(out, delivery.output.samples, delivery.output.rate_hz)]
+    if suffix == ".csv":
+        units = getattr(pipeline.model, "units", "g")
+        column = "profile_g" if units == "g" else "profile_fraction"
+        return [write_csv(out, {"t_s": delivery.profile.times(), column: delivery.profile.samples})]
+    if suffix == ".png":
+        return [impact_png(out, delivery, title=pipeline.effect.name, profile_units=getattr(pipeline.model, "units", "g"),
+                           volts_peak=pipeline.actuator.spec.volts_peak)]
+    raise HapticfxError(f"{out}: unknown output type {suffix!r}; use .wav, .csv or .png")
+
+
+def _summary(pipeline, delivery, destination: str) -> str:
+    imp, out = delivery.impact, delivery.output
+    return (f"{pipeline.effect.name}: {imp.object} at {imp.velocity:.2f} m/s -> {destination}; "
+            f"{out.duration_s * 1000:.0f} ms at {out.rate_hz:g} Hz, peak {out.peak:.3f} of full scale; "
+            f"{delivery.limiter.summary()}")
+
+
+def play(
+    effect: Path = typer.Argument(..., help="Effect file (YAML), e.g. effects/falling_brick.yaml."),
+    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help=VELOCITY_HELP),
+    object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
+    device: Optional[str] = typer.Option(
+        None, "--device", "-d",
+        help="Output device: a name or index for the effect's actuator, 'wav:PATH' to write a WAV file "
+             "at the actuator's rate, or 'memory'. Default: the effect's device.",
+    ),
+):
+    """Render one impact and play it on the effect's actuator.
+
+    With no output device available (a headless machine), the impact is written to a WAV
+    file and a PNG picture in the current directory instead, and their names are printed.
+    """
+    from ..pipeline import Pipeline
+
+    dev = _device(device)
+    pipeline = Pipeline.from_effect(effect, device=dev)
+    try:
+        pipeline.open()
+    except DeviceError as exc:
+        if dev is not None:
+            raise
+        stem = f"hapticfx-{pipeline.effect.name}-{(velocity if velocity is not None else pipeline.effect.velocity_mps):.2f}mps"
+        wav, png = Path(f"{stem}.wav"), Path(f"{stem}.png")
+        delivery = pipeline.render(velocity=velocity, object=object)
+        _write_outputs(pipeline, delivery, wav)
+        _write_outputs(pipeline, delivery, png)
+        typer.echo(f"no output device ({exc}); wrote the impact to {wav} and {png} instead "
+                   f"(choose a file with --device wav:PATH)")
+        return
+    try:
+        delivery = pipeline.impact(velocity=velocity, object=object)
+        pipeline.actuator.wait(timeout=delivery.output.duration_s + 2.0)
+    finally:
+        pipeline.close()
+    typer.echo(_summary(pipeline, delivery, pipeline.actuator.describe()))
+
+
+def render(
+    effect: Path = typer.Argument(..., help="Effect file (YAML)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Output file: .wav (actuator signal), .csv (profile) or .png (both, plotted)."),
+    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help=VELOCITY_HELP),
+    object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
+):
+    """Render one impact to a file without touching any device."""
+    from ..pipeline import Pipeline
+
+    pipeline = Pipeline.from_effect(effect, device="memory")
+    delivery = pipeline.render(velocity=velocity, object=object)
+    written = _write_outputs(pipeline, delivery, out)
+    typer.echo(_summary(pipeline, delivery, ", ".join(map(str, written))))
+
+
+def validate(files: list[Path] = typer.Argument(..., help="Effect files to check.")):
+    """Check effect files: keys, types, ranges, plugins and their parameters. Exit 2 if any fails."""
+    from ..effect import check_effect, load_effect
+
+    failed = 0
+    for file in files:
+        try:
+            plan = check_effect(load_effect(file))
+            e = plan.effect
+            typer.echo(f"ok: {file} (effect {e.name!r}: model {e.model.type}, actuator {e.actuator.type})")
+        except HapticfxError as exc:
+            failed += 1
+            typer.echo(f"hapticfx: error: {exc}", err=True)
+    if failed:
+        raise typer.Exit(2)
+
+
+def info(
+    effect: Path = typer.Argument(..., help="Effect file (YAML)."),
+    device: Optional[str] = typer.Option(None, "--device", "-d", help="As for play."),
+):
+    """Show what an effect will load: plugins, dataset, interpolator, actuator spec and limits."""
+    from ..pipeline import Pipeline
+
+    pipeline = Pipeline.from_effect(effect, device=_device(device))
+    typer.echo(json.dumps(pipeline.describe(), indent=2, default=str))
+
+
+def plugins():
+    """List installed plugins and what each registers (name, kind, distribution, version)."""
+    from ..registry import get_registry
+
+    reg = get_registry()
+    rows = [(r.kind, r.name, r.plugin, r.distribution, r.version) for r in reg]
+    used = {r[2] for r in rows}
+    rows += [("-", "-", p.name, p.distribution, p.version) for p in reg.plugins.values() if p.name not in used]
+    header = ("kind", "name", "plugin", "distribution", "version")
+    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
+    for row in (header, *rows):
+        typer.echo("  ".join(str(x).ljust(w) for x, w in zip(row, widths)).rstrip())
+
+
+def schema(out: Optional[Path] = typer.Option(None, "--out", "-o", help="Write to this file instead of stdout.")):
+    """Print the JSON Schema of effect files (for editors), covering the installed plugins."""
+    from ..actuators.files import atomic_path
+    from ..schema import effect_schema
+
+    text = json.dumps(effect_schema(), indent=2, sort_keys=True) + "\n"
+    if out is None:
+        typer.echo(text, nl=False)
+        return
+    with atomic_path(out) as tmp:
+        tmp.write_text(text)
+    typer.echo(f"wrote {out}")
+
+
+def register(app: typer.Typer) -> None:
+    for fn in (play, render, validate, info, plugins, schema):
+        app.command(fn.__name__)(fn)
+

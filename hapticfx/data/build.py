@@ -1,0 +1,160 @@
+"""Building a dataset directory from 3-axis drop recordings.
+
+:func:`build_dataset` preprocesses every drop (:mod:`hapticfx.data.preprocess`),
+picks a representative drop per velocity (:mod:`hapticfx.data.representative`,
+honouring manual overrides), and writes the raw recordings plus one bank per
+reducer atomically with :class:`~hapticfx.data.dataset.DatasetWriter`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable
+
+import numpy as np
+
+from ..errors import DatasetError, HapticfxError
+from ..objects import ObjectInfo
+from ..signal import valid_number, valid_signal
+from . import representative
+from .dataset import DatasetWriter
+from .preprocess import Preprocessing, preprocess
+
+
+@dataclass
+class ObjectRecordings:
+    """All drops of one object: ``accel_g`` is ``(V, D, N_raw, 3)`` raw g (gravity included).
+
+    ``velocities_mps`` is ``(V,)``; ``representative_overrides`` maps a recorded
+    velocity to the drop index to use instead of the automatic choice.
+    """
+
+    info: ObjectInfo
+    velocities_mps: np.ndarray
+    accel_g: np.ndarray
+    representative_overrides: dict[float, int] = field(default_factory=dict)
+
+    def __post_init__(self):
+        label = f"object {self.info.id!r}"
+        try:
+            v = valid_signal(self.velocities_mps, name=f"{label} velocities_mps", ndim=1)
+            a = valid_signal(self.accel_g, name=f"{label} accel_g", ndim=4)
+        except HapticfxError as exc:
+            raise DatasetError(str(exc)) from None
+        if a.shape[0] != v.shape[0] or a.shape[-1] != 3:
+            raise DatasetError(f"{label}: accel_g must have shape ({v.shape[0]}, drops, samples, 3), got {a.shape}")
+        if np.any(v <= 0):
+            raise DatasetError(f"{label}: velocities must be > 0 m/s, got {v.tolist()}")
+        order = np.argsort(v, kind="stable")
+        if np.any(np.diff(v[order]) <= 0):
+            raise DatasetError(f"{label}: velocity recorded twice in {v.tolist()}; put all drops of a velocity together")
+        self.velocities_mps = v[order]
+        self.accel_g = a[order]
+
+
+def _check_reducers(reducers) -> list[tuple[str, object]]:
+    from ..registry import get_registry
+
+    registry = get_registry()
+    return [(name, registry.create("reducer", name)) for name in reducers]
+
+
+def build_dataset(
+    out: Path,
+    recordings: Iterable[ObjectRecordings],
+    *,
+    name: str,
+    rate_hz: float,
+    sensor: dict,
+    provenance: dict,
+    reducers=("max-min", "dft321"),
+    overwrite: bool = False,
+    progress: Callable[[str], None] | None = None,
+    preprocessing: Preprocessing | None = None,
+) -> Path:
+    """Write a dataset to ``out`` and return its path; nothing is left behind on error.
+
+    ``rate_hz`` is the rate of the raw recordings; banks are at
+    ``preprocessing.rate_hz`` (1 kHz) with ``preprocessing.n_samples`` (500) samples.
+    """
+    rate = valid_number(rate_hz, name="rate_hz", minimum=1.0)
+    params = preprocessing or Preprocessing()
+    if params.cutoff_hz >= min(rate, params.rate_hz) / 2:
+        raise DatasetError(f"high-pass cutoff {params.cutoff_hz} Hz is not below the Nyquist frequency of {rate} Hz")
+    reducer_objs = _check_reducers(reducers)
+    say = progress or (lambda message: None)
+    out = Path(out)
+    with DatasetWriter(
+        out, name=name, rate_hz=params.rate_hz, n_samples=params.n_samples, overwrite=overwrite,
+        raw_rate_hz=rate, sensor=dict(sensor), provenance=dict(provenance),
+        preprocessing=params.to_dict(), representative_method=representative.METHOD,
+    ) as writer:
+        seen: set[str] = set()
+        for rec in recordings:
+            oid = rec.info.id
+            if oid in seen:
+                raise DatasetError(f"object {oid!r} given twice")
+            seen.add(oid)
+            say(f"{oid}: preprocessing {rec.accel_g.shape[0]} velocities x {rec.accel_g.shape[1]} drops")
+            windows = preprocess(rec.accel_g, rate, params=params)
+            chosen, auto = representative.choose(
+                windows, rec.velocities_mps, rec.representative_overrides, label=f"object {oid!r}"
+            )
+            writer.add_object(
+                rec.info,
+                n_drops=int(rec.accel_g.shape[1]),
+                velocities_mps=rec.velocities_mps.tolist(),
+                representative={
+                    "chosen": chosen.tolist(),
+                    "automatic": auto.tolist(),
+                    "overrides": [
+                        {"velocity_mps": float(v), "drop": int(d)}
+                        for v, d in sorted(rec.representative_overrides.items())
+                    ],
+                },
+            )
+            writer.write_raw(oid, rec.velocities_mps, rec.accel_g)
+            picked = windows[np.arange(windows.shape[0]), chosen]
+            for rname, reducer in reducer_objs:
+                say(f"{oid}: bank {rname}")
+                writer.write_bank(rname, oid, rec.velocities_mps, reducer.reduce(picked), chosen)
+        if not seen:
+            raise DatasetError(f"{out}: no recordings given")
+    say(f"wrote {out}")
+    return out
+
+
+def set_representative(path: Path, object_id: str, velocity_mps: float, drop: int | None,
+                       *, progress: Callable[[str], None] | None = None) -> Path:
+    """Set (``drop``) or clear (``None``) the manual representative of one velocity and rebuild the banks.
+
+    The override is stored in the dataset's metadata; the raw recordings, sensor,
+    provenance, preprocessing and reducers are kept.
+    """
+    from .dataset import open_dataset
+
+    ds = open_dataset(path)
+    if object_id not in ds.objects:
+        raise DatasetError(f"dataset {ds.name!r} has no object {object_id!r}; it has: {', '.join(ds.objects)}")
+    recordings = []
+    for oid in ds.objects:
+        velocities, accel = ds.raw(oid)
+        overrides = {float(o["velocity_mps"]): int(o["drop"])
+                     for o in ds.meta["objects"][oid].get("representative", {}).get("overrides", [])}
+        if oid == object_id:
+            hits = np.flatnonzero(np.abs(velocities - velocity_mps) <= 1e-6)
+            if hits.size == 0:
+                raise DatasetError(f"{object_id} has no drops at {velocity_mps} m/s; recorded: "
+                                   + ", ".join(f"{v:g}" for v in velocities))
+            v = float(velocities[hits[0]])
+            overrides = {k: d for k, d in overrides.items() if abs(k - v) > 1e-6}
+            if drop is not None:
+                overrides[v] = int(drop)
+        recordings.append(ObjectRecordings(ds.object_info(oid), velocities, accel, overrides))
+    meta = ds.meta
+    return build_dataset(
+        ds.path, recordings, name=ds.name, rate_hz=ds.raw_rate_hz, sensor=meta.get("sensor", {}),
+        provenance=meta.get("provenance", {}), reducers=tuple(ds.reducers()), overwrite=True, progress=progress,
+        preprocessing=Preprocessing.from_dict(meta.get("preprocessing", {})),
+    )

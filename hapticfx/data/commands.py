@@ -1,0 +1,181 @@
+"""The ``hapticfx data ...`` commands and ``hapticfx bench reducers``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from ..errors import DatasetError
+
+DEFAULT_DATASET = "builtin:helmet-drops"
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise DatasetError(f"{option} {item!r}: expected KEY=VALUE")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _echo(message: str) -> None:
+    typer.echo(message, err=True)
+
+
+def import_(
+    files: List[Path] = typer.Argument(..., help="Tidy CSV file(s): object,velocity_mps,drop,t_s,ax_g,ay_g,az_g."),
+    out: Path = typer.Option(..., "--out", "-o", help="Dataset directory to create."),
+    name: Optional[str] = typer.Option(None, help="Dataset name (default: the directory name)."),
+    sensor: List[str] = typer.Option([], help="Sensor metadata KEY=VALUE, repeatable (e.g. model=ADXL335)."),
+    mass: List[str] = typer.Option([], help="OBJECT=KG for objects that are not built in, repeatable."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing dataset at --out."),
+):
+    """Import drop recordings from tidy CSV into a dataset (raw + max-min and dft321 banks).
+
+    Every bad row is reported with its line number; nothing is written unless all is good.
+    """
+    from .csv_import import import_csv
+
+    masses = {}
+    for k, v in _pairs(mass, "--mass").items():
+        try:
+            masses[k] = float(v)
+        except ValueError:
+            raise DatasetError(f"--mass {k}={v}: the mass must be a number in kg") from None
+    path = import_csv(files, out, name=name, sensor=_pairs(sensor, "--sensor") or None, masses=masses,
+                      overwrite=force, progress=_echo)
+    typer.echo(str(path))
+
+
+def record(
+    port: str = typer.Option(..., "--port", "-p", help="Serial port of the accelerometer board, e.g. /dev/ttyACM0."),
+    object: str = typer.Option(..., "--object", help="Object id written into each file."),
+    height_m: float = typer.Option(..., "--height-m", help="Drop height in metres; v = sqrt(2 g h)."),
+    drops: int = typer.Option(10, help="Number of drops to record."),
+    out_dir: Path = typer.Option(Path("recordings"), "--out-dir", help="Folder for the per-drop CSV files."),
+    threshold_g: float = typer.Option(0.5, help="Trigger: deviation from rest of the acceleration vector, in g."),
+    pre_trigger: int = typer.Option(50, help="Samples kept from before the trigger."),
+    samples: int = typer.Option(1000, help="Samples per drop (pre-trigger included)."),
+    timeout_s: float = typer.Option(60.0, help="Give up when no impact comes within this many seconds."),
+    baud: int = typer.Option(500000, help="Serial baud rate (the sketch uses 500000)."),
+):
+    """Record triggered drops from the serial accelerometer board, one CSV file per drop."""
+    from .record import record_drops
+
+    files = record_drops(port, object_id=object, height_m=height_m, drops=drops, out_dir=out_dir,
+                         threshold_g=threshold_g, pre_trigger=pre_trigger, n_samples=samples,
+                         timeout_s=timeout_s, baud=baud, progress=_echo)
+    for f in files:
+        typer.echo(str(f))
+
+
+def plot(
+    object: str = typer.Argument(..., help="Object id."),
+    dataset: str = typer.Option(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
+    reducer: str = typer.Option("max-min", help="Reducer whose bank and drops are drawn."),
+    velocity: Optional[float] = typer.Option(None, help="Velocity (m/s) whose drops are drawn (default: middle one)."),
+    out: Path = typer.Option(Path("profiles.png"), "--out", "-o", help="PNG file to write."),
+):
+    """Plot the drops at one velocity with the chosen representative, and the profiles across velocities."""
+    from .dataset import open_dataset
+    from .plot import plot_object
+
+    typer.echo(str(plot_object(open_dataset(dataset), object, out, reducer=reducer, velocity=velocity)))
+
+
+def info(dataset: str = typer.Argument(DEFAULT_DATASET, help="Dataset path or builtin:NAME.")):
+    """Describe a dataset: rates, sensor, provenance, objects, velocities, drops, representatives."""
+    import json
+
+    from .dataset import open_dataset
+
+    ds = open_dataset(dataset)
+    m = ds.meta
+    typer.echo(f"{ds.name}: {ds.path}")
+    typer.echo(f"  raw rate {ds.raw_rate_hz:g} Hz; banks {ds.rate_hz:g} Hz x {ds.n_samples} samples; "
+               f"reducers: {', '.join(ds.reducers()) or 'none'}")
+    for key in ("sensor", "provenance", "preprocessing"):
+        if key in m:
+            typer.echo(f"  {key}: {json.dumps(m[key], sort_keys=True)}")
+    for obj in ds.objects:
+        o = m["objects"][obj]
+        rep = o.get("representative", {})
+        vs = o.get("velocities_mps", [])
+        typer.echo(f"  {obj}: {o.get('name', obj)}, {o['mass_kg']} kg, {len(vs)} velocities x {o.get('n_drops', '?')} drops")
+        manual = {round(x["velocity_mps"], 6): x["drop"] for x in rep.get("overrides", [])}
+        for v, c in zip(vs, rep.get("chosen", [])):
+            how = "manual" if round(v, 6) in manual else "medoid"
+            typer.echo(f"    {v:.3f} m/s: drop {c} ({how})")
+
+
+def pick(
+    object: str = typer.Argument(..., help="Object id."),
+    velocity: float = typer.Argument(..., help="Recorded velocity in m/s."),
+    drop: Optional[int] = typer.Argument(None, help="Drop index to use; omit with --auto."),
+    dataset: str = typer.Option(..., help="Dataset directory (rewritten in place, atomically)."),
+    auto: bool = typer.Option(False, "--auto", help="Remove the manual choice and go back to the medoid."),
+):
+    """Choose the representative drop of one velocity by hand (stored in the metadata) and rebuild the banks."""
+    from .build import set_representative
+
+    if (drop is None) != auto:
+        raise DatasetError("give either a DROP index or --auto")
+    typer.echo(str(set_representative(Path(dataset), object, velocity, drop, progress=_echo)))
+
+
+def bench_reducers(
+    dataset: str = typer.Option(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
+    repeat: int = typer.Option(30, help="Timed repetitions (median and IQR are over these)."),
+    number: int = typer.Option(200, help="Calls per repetition for the single-signal time."),
+    samples: int = typer.Option(1_000_000, help="3-axis samples in the large-batch timing."),
+):
+    """Table 4 analogue (spectral/temporal match per object and reducer) and time per reduction."""
+    from ..registry import get_registry
+    from ..timing import table
+    from .bench import METRICS, score, time_reducers
+    from .dataset import open_dataset
+
+    ds = open_dataset(dataset)
+    reg = get_registry()
+    reducers = {name: reg.create("reducer", name) for name in ("dft321", "max-min")}
+    scores = score(ds, reducers, progress=_echo)
+    typer.echo(f"dataset {ds.name} ({ds.path}); metrics are means over all drops (not just representatives); "
+               "definitions in docs/data.md")
+    rows = []
+    for s in scores:
+        rows.append([s.object, s.n_drops] + [f"{s.mean[r, m]:.3f}" for r in reducers for m in ("spectral", "temporal")])
+    typer.echo(table(["object", "drops", "DFT321 spectral", "DFT321 temporal", "max-min spectral", "max-min temporal"], rows))
+    typer.echo("\nother views of the difference (spectral vs the RSS spectrum is 1 for DFT321 by construction):")
+    rows = [[s.object] + [f"{s.mean[r, m]:.3f} ± {s.std[r, m]:.3f}" for r in reducers for m, _ in METRICS if m != "spectral"]
+            for s in scores]
+    typer.echo(table(["object"] + [f"{r} {m}" for r in reducers for m, _ in METRICS if m != "spectral"], rows))
+
+    _, windows = ds.windows(ds.objects[0])
+    signal = windows[0, 0]
+    _echo(f"timing {', '.join(reducers)}")
+    t = time_reducers(reducers, signal, n_big=samples, repeat=repeat, number=number)
+    n_big = (samples // signal.shape[0]) * signal.shape[0]
+    typer.echo(f"\ntime per reduction ({repeat} repetitions, reducers alternated; one signal: mean of {number} calls per "
+               f"repetition; batch: {n_big} 3-axis samples as {n_big // signal.shape[0]} x {signal.shape[0]} x 3)")
+    rows = []
+    for what, label, unit, scale in (("one", f"one {signal.shape[0]}x3 signal", "us", 1e6), ("big", f"{n_big} samples", "ms", 1e3)):
+        for r in reducers:
+            tm = t[r, what]
+            rows.append([label, r, f"{tm.median * scale:.2f} {unit}", f"{tm.iqr * scale:.2f} {unit}",
+                         f"{min(tm.samples) * scale:.2f}-{max(tm.samples) * scale:.2f} {unit}"])
+        ratio = t["max-min", what].median / t["dft321", what].median
+        rows.append([label, "max-min / DFT321", f"{ratio:.2f}", "", ""])
+    typer.echo(table(["input", "reducer", "median", "IQR", "min-max"], rows))
+
+
+def register(bench: typer.Typer, data: typer.Typer) -> None:
+    data.command("import")(import_)
+    data.command("record")(record)
+    data.command("plot")(plot)
+    data.command("info")(info)
+    data.command("pick")(pick)
+    bench.command("reducers")(bench_reducers)

@@ -1,0 +1,94 @@
+"""The ``hapticfx data synth`` and ``hapticfx bench contact`` commands."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import DatasetError, SignalError
+
+
+def _floats(text: str, *, option: str) -> list[float]:
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise SignalError(f"{option} must be comma-separated numbers, got {text!r}") from None
+    if not values:
+        raise SignalError(f"{option} is empty")
+    return values
+
+
+def _say(message: str) -> None:
+    typer.echo(message, err=True)
+
+
+def synth(
+    out: Optional[Path] = typer.Argument(None, help="Dataset directory to write (not with --builtin)."),
+    builtin: bool = typer.Option(False, "--builtin", help="Regenerate the packaged builtin:helmet-drops dataset."),
+    objects: str = typer.Option("all", "--objects", help="Comma-separated built-in object ids, or 'all'."),
+    velocities: str = typer.Option("", "--velocities", help="Comma-separated velocities in m/s (default: the paper's 12)."),
+    drops: int = typer.Option(10, "--drops", min=1, max=1000, help="Drops per velocity."),
+    seed: int = typer.Option(20230417, "--seed", help="Random seed: the same seed gives the same recordings."),
+    workers: int = typer.Option(2, "--workers", min=1, max=64, help="Processes simulating drops in parallel."),
+    force: bool = typer.Option(False, "--force", help="Replace OUT if it exists."),
+):
+    """Simulate drops on the helmet rig and write a dataset (raw 3-axis recordings + banks).
+
+    The simulator: Hunt-Crossley contact with rebounds, helmet modes, an
+    ADXL335-like sensor behind a 14-bit DAQ at 1 kHz. See docs/physics.md.
+    """
+    from ..objects import PAPER_OBJECTS, builtin_object
+    from . import synth as sim
+
+    started = time.perf_counter()
+    if builtin:
+        if out is not None or objects != "all" or velocities or drops != sim.BUILTIN_DROPS or seed != sim.BUILTIN_SEED:
+            raise DatasetError("--builtin regenerates the packaged dataset exactly; it takes no OUT, --objects, "
+                               "--velocities, --drops or --seed")
+        path = sim.synth_builtin(workers=workers, progress=_say)
+    else:
+        if out is None:
+            raise DatasetError("give an output directory (or --builtin)")
+        infos = list(PAPER_OBJECTS.values()) if objects == "all" else [
+            builtin_object(o.strip(), key="--objects") for o in objects.split(",") if o.strip()]
+        vs = _floats(velocities, option="--velocities") if velocities else list(sim.PAPER_VELOCITIES)
+        command = (f"hapticfx data synth {out} --objects {','.join(i.id for i in infos)} "
+                   f"--velocities {','.join(f'{v:g}' for v in vs)} --drops {drops} --seed {seed}")
+        path = sim.synth_dataset(out, infos, vs, drops=drops, seed=seed, workers=workers,
+                                 overwrite=force, progress=_say, command=command)
+    typer.echo(f"wrote {path} in {time.perf_counter() - started:.1f} s")
+
+
+def bench_contact(
+    repeats: int = typer.Option(3, "--repeats", min=1, max=100, help="Timed runs per solver and tolerance."),
+    solvers: str = typer.Option("RK45,DOP853,Radau,BDF,LSODA", "--solvers", help="scipy solve_ivp methods."),
+    rtols: str = typer.Option("1e-4,1e-6,1e-8", "--rtols", help="Relative tolerances."),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Also write the rows as JSON here."),
+):
+    """Work-precision table of the contact integration, soft (k=1e5) to very stiff (k=1e10) and sustained."""
+    from . import contactbench
+
+    names = [s.strip() for s in solvers.split(",") if s.strip()]
+    known = {"RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"}
+    bad = [n for n in names if n not in known]
+    if bad:
+        raise SignalError(f"--solvers: unknown solver {bad[0]!r}; known: {', '.join(sorted(known))}")
+    tols = _floats(rtols, option="--rtols")
+    if any(not 1e-13 <= t <= 1e-1 for t in tols):
+        raise SignalError(f"--rtols must lie in [1e-13, 0.1], got {tols}")
+    rows = contactbench.run(solvers=names, rtols=tols, repeats=repeats, progress=_say)
+    typer.echo(contactbench.table(rows))
+    if out is not None:
+        tmp = out.with_name(f".{out.name}.tmp")
+        tmp.write_text(json.dumps(rows, indent=2) + "\n")
+        tmp.replace(out)
+        typer.echo(f"wrote {out}")
+
+
+def register(bench: typer.Typer, data: typer.Typer) -> None:
+    data.command("synth")(synth)
+    bench.command("contact")(bench_contact)

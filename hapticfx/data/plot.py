@@ -1,0 +1,74 @@
+"""Figures of a dataset: the drops at one velocity with the chosen representative
+(like the paper's Fig. 6a) and one object's representative profiles across
+velocities (like Fig. 6b)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DatasetError
+from .dataset import Dataset
+
+
+def plot_object(ds: Dataset, object_id: str, out: Path, *, reducer: str = "max-min", velocity: float | None = None) -> Path:
+    """Write a two-panel PNG for ``object_id``; returns its path.
+
+    Left: every drop at ``velocity`` (default: the middle recorded velocity),
+    reduced with ``reducer``, with the representative drawn bold. Right: the
+    bank's representative profiles, one per velocity.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from ..registry import get_registry
+
+    bank = ds.bank(object_id, reducer)
+    velocities, windows = ds.windows(object_id)
+    rep = ds.representatives(object_id)
+    if velocity is None:
+        i = len(velocities) // 2
+    else:
+        hits = np.flatnonzero(np.abs(velocities - velocity) <= 1e-6)
+        if hits.size == 0:
+            raise DatasetError(f"{object_id} has no drops at {velocity} m/s; recorded: "
+                               + ", ".join(f"{v:g}" for v in velocities))
+        i = int(hits[0])
+    drops = get_registry().create("reducer", reducer).reduce(windows[i])
+    chosen = int(rep["chosen"][i])
+    t_ms = np.arange(drops.shape[-1]) / ds.rate_hz * 1000.0
+    manual = any(abs(o["velocity_mps"] - velocities[i]) <= 1e-6 for o in rep.get("overrides", []))
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True)
+    for d, x in enumerate(drops):
+        if d != chosen:
+            a.plot(t_ms, x, lw=0.7, alpha=0.45, color="0.45")
+    a.plot(t_ms, drops[chosen], lw=1.8, color="C3",
+           label=f"representative: drop {chosen} ({'manual' if manual else 'medoid'})")
+    a.set(title=f"{ds.object_info(object_id).name}: {len(drops)} drops at {velocities[i]:.2f} m/s ({reducer})",
+          xlabel="time (ms)", ylabel="acceleration (g)")
+    a.legend(loc="upper right")
+    cmap = plt.get_cmap("viridis")
+    for k in range(len(bank)):
+        b.plot(t_ms[: bank.n_samples], bank.profiles[k], lw=0.9, color=cmap(k / max(1, len(bank) - 1)),
+               label=f"{bank.velocities[k]:.2f} m/s")
+    b.set(title=f"{ds.object_info(object_id).name}: representative profiles ({reducer})",
+          xlabel="time (ms)", ylabel="acceleration (g)")
+    b.legend(fontsize=7, ncol=2, loc="upper right", title="impact velocity")
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".png", dir=out.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=110)
+        os.replace(tmp, out)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
+    return out

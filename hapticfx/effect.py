@@ -1,0 +1,276 @@
+"""Effect files: YAML read with a safe loader and validated into typed objects.
+
+Structure checks happen here (keys, types, ranges, the object). What a model
+or actuator accepts is declared by its class's ``Params``; :func:`check_effect`
+resolves the plugins and validates those too, without opening any device.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import EffectError, HapticfxError
+from .interfaces import SafetyLimits
+from .objects import ObjectInfo, builtin_object
+from .params import BuildContext, params_of, parse_params
+from .registry import Registry, get_registry
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """The safe loader, but a mapping may not repeat a key."""
+
+
+def _mapping_without_duplicates(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False):
+    seen = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r} (first at line {seen[key] + 1})", key_node.start_mark
+            )
+        seen[key] = key_node.start_mark.line
+    return loader.construct_mapping(node, deep=deep)
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping_without_duplicates)
+
+
+def read_yaml(path: Path) -> Any:
+    """Parse a YAML file safely; errors name the file and line."""
+    path = Path(path)
+    if not path.is_file():
+        raise EffectError("file not found" if not path.exists() else "not a file", source=str(path))
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise EffectError(f"cannot read: {exc}", source=str(path)) from exc
+    loader = _StrictLoader(text)
+    try:
+        return loader.get_single_data()
+    except yaml.constructor.ConstructorError as exc:
+        mark = exc.problem_mark
+        where = f"line {mark.line + 1}: " if mark else ""
+        if exc.problem and "constructor for the tag" in exc.problem:
+            tag = exc.problem.split("tag ", 1)[-1]
+            raise EffectError(
+                f"{where}tag {tag} is not allowed (effect files hold plain mappings, lists, strings and numbers)",
+                source=str(path),
+            ) from None
+        raise EffectError(f"{where}{exc.problem}", source=str(path)) from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise EffectError(f"invalid YAML: {where}{problem}", source=str(path)) from None
+    finally:
+        loader.dispose()
+
+
+@dataclass(frozen=True)
+class ObjectParams:
+    """A physical description of an object, for objects that are not built in."""
+
+    id: str
+    mass_kg: float = field(metadata={"min": 1e-6, "max": 1e4, "doc": "mass (kg)"})
+    name: str | None = None
+    material: str = "unknown"
+
+
+@dataclass(frozen=True)
+class LimitParams:
+    """Limits an effect may lower (never raise) below the actuator's hard limits."""
+
+    peak: float | None = field(default=None, metadata={"min": 0.0, "max": 1.0, "doc": "peak, fraction of full scale"})
+    rms: float | None = field(default=None, metadata={"min": 0.0, "max": 1.0, "doc": "RMS ceiling, fraction of full scale"})
+    rms_window_s: float | None = field(default=None, metadata={"min": 1e-4, "max": 60.0, "doc": "RMS window (s); may only grow"})
+    max_on_s: float | None = field(default=None, metadata={"min": 0.0, "max": 60.0, "doc": "longest pulse (s)"})
+    max_duty: float | None = field(default=None, metadata={"min": 0.0, "max": 1.0, "doc": "duty cycle ceiling"})
+
+
+@dataclass(frozen=True)
+class Section:
+    """A model or actuator section: the plugin type and its remaining keys."""
+
+    type: str
+    options: dict
+
+
+@dataclass(frozen=True)
+class ActuatorSection(Section):
+    """The actuator section: type, core routing and gain, limits, plugin options."""
+
+    device: str | int | None = None
+    channel: int | None = None
+    gain: float | None = None
+    full_scale_g: float = 4.0
+    limits: LimitParams = LimitParams()
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A validated effect file."""
+
+    name: str
+    object_id: str
+    object_info: ObjectInfo | None
+    velocity_mps: float
+    model: Section
+    actuator: ActuatorSection
+    source: str
+    base_dir: Path
+    description: str = ""
+
+    def context(self, *, device=None) -> BuildContext:
+        return BuildContext(
+            source=self.source, base_dir=self.base_dir, object_id=self.object_id, object_info=self.object_info,
+            device=self.actuator.device if device is None else device, channel=self.actuator.channel,
+        )
+
+
+TOP_KEYS = ("name", "description", "object", "velocity_mps", "model", "actuator")
+ACTUATOR_CORE_KEYS = ("type", "device", "channel", "gain", "full_scale_g", "limits")
+
+
+def _require_mapping(value, *, source: str, key: str) -> dict:
+    if not isinstance(value, dict):
+        raise EffectError(f"expected a mapping, got {type(value).__name__} {value!r}", source=source, key=key)
+    return value
+
+
+def _str(value, *, source, key) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise EffectError(f"expected a non-empty string, got {value!r}", source=source, key=key)
+    return value
+
+
+def _number(value, *, source, key, minimum=None, maximum=None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise EffectError(f"expected a number, got {type(value).__name__} {value!r}", source=source, key=key)
+    if not math.isfinite(value):
+        raise EffectError(f"expected a finite number, got {value!r}", source=source, key=key)
+    if minimum is not None and value < minimum:
+        raise EffectError(f"must be >= {minimum}, got {value}", source=source, key=key)
+    if maximum is not None and value > maximum:
+        raise EffectError(f"must be <= {maximum}, got {value}", source=source, key=key)
+    return float(value)
+
+
+def _object(value, *, source) -> tuple[str, ObjectInfo | None]:
+    if isinstance(value, str):
+        try:
+            return value, builtin_object(value, source=source)
+        except EffectError:
+            return value, None  # a dataset object id; the model checks it exists
+    raw = dict(_require_mapping(value, source=source, key="object"))
+    dims = raw.pop("dimensions_mm", (0.0, 0.0, 0.0))
+    if not isinstance(dims, (list, tuple)) or len(dims) != 3:
+        raise EffectError(f"expected [width, height, depth] in mm, got {dims!r}", source=source, key="object.dimensions_mm")
+    dims = tuple(_number(d, source=source, key="object.dimensions_mm", minimum=0.0, maximum=1e5) for d in dims)
+    p = parse_params(ObjectParams, raw, source=source, key="object")
+    return p.id, ObjectInfo(p.id, p.name or p.id, p.mass_kg, dims, p.material)
+
+
+def parse_actuator_section(raw: Any, *, source: str, key: str = "actuator") -> ActuatorSection:
+    """Validate an actuator section (core keys here; the plugin's own keys at build time)."""
+    act_raw = dict(_require_mapping(raw, source=source, key=key))
+    if "type" not in act_raw:
+        raise EffectError("required key 'type' is missing", source=source, key=key)
+    core = {k: act_raw.pop(k) for k in ACTUATOR_CORE_KEYS if k in act_raw}
+    device = core.get("device")
+    if device is not None and (isinstance(device, bool) or not isinstance(device, (str, int))):
+        raise EffectError(f"expected a device name or index, got {device!r}", source=source, key=f"{key}.device")
+    channel = core.get("channel")
+    if channel is not None and (isinstance(channel, bool) or not isinstance(channel, int) or channel < 0):
+        raise EffectError(f"expected a channel number >= 0, got {channel!r}", source=source, key=f"{key}.channel")
+    gain = core.get("gain")
+    if gain is not None:
+        gain = _number(gain, source=source, key=f"{key}.gain", minimum=0.0, maximum=1.0)
+    full_scale = _number(core.get("full_scale_g", 4.0), source=source, key=f"{key}.full_scale_g",
+                         minimum=1e-6, maximum=1e6)
+    limits = parse_params(LimitParams, core.get("limits"), source=source, key=f"{key}.limits")
+    return ActuatorSection(
+        _str(core["type"], source=source, key=f"{key}.type"), act_raw,
+        device=device, channel=channel, gain=gain, full_scale_g=full_scale, limits=limits,
+    )
+
+
+def effect_from_mapping(data: Any, *, source: str, base_dir: Path) -> Effect:
+    """Validate the structure of an effect mapping (plugins are checked by :func:`check_effect`)."""
+    data = _require_mapping(data, source=source, key="(top level)") if data is not None else None
+    if data is None:
+        raise EffectError("the file is empty; an effect needs name, object, model and actuator", source=source)
+    unknown = [k for k in data if k not in TOP_KEYS]
+    if unknown:
+        raise EffectError(f"unknown key {unknown[0]!r}; allowed: {', '.join(TOP_KEYS)}", source=source, key="(top level)")
+    for required in ("name", "object", "model", "actuator"):
+        if required not in data:
+            raise EffectError(f"required key {required!r} is missing", source=source, key="(top level)")
+    name = _str(data["name"], source=source, key="name")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise EffectError(f"expected a string, got {description!r}", source=source, key="description")
+    object_id, info = _object(data["object"], source=source)
+    velocity = _number(data.get("velocity_mps", 3.0), source=source, key="velocity_mps", minimum=0.0, maximum=100.0)
+
+    model_raw = dict(_require_mapping(data["model"], source=source, key="model"))
+    if "type" not in model_raw:
+        raise EffectError("required key 'type' is missing", source=source, key="model")
+    model = Section(_str(model_raw.pop("type"), source=source, key="model.type"), model_raw)
+
+    actuator = parse_actuator_section(data["actuator"], source=source)
+    return Effect(name, object_id, info, velocity, model, actuator, source, base_dir, description)
+
+
+def load_effect(path: str | Path) -> Effect:
+    """Read and validate the structure of an effect file."""
+    path = Path(path)
+    return effect_from_mapping(read_yaml(path), source=str(path), base_dir=path.resolve().parent)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What building an effect will load: plugin classes and their parsed parameters."""
+
+    effect: Effect
+    model_cls: type
+    model_params: Any
+    actuator_cls: type
+    actuator_params: Any
+
+    def model_registration(self, registry: Registry):
+        return registry.get("model", self.effect.model.type)
+
+    def actuator_registration(self, registry: Registry):
+        return registry.get("actuator", self.effect.actuator.type)
+
+
+def _resolve(registry: Registry, kind: str, name: str, *, source: str, key: str) -> type:
+    try:
+        return registry.get(kind, name).resolve()
+    except HapticfxError as exc:
+        raise EffectError(str(exc), source=source, key=key) from None
+
+
+def check_effect(effect: Effect, *, registry: Registry | None = None) -> Plan:
+    """Resolve the effect's plugins and validate their parameters; opens nothing."""
+    registry = registry or get_registry()
+    src = effect.source
+    model_cls = _resolve(registry, "model", effect.model.type, source=src, key="model.type")
+    actuator_cls = _resolve(registry, "actuator", effect.actuator.type, source=src, key="actuator.type")
+    model_params = parse_params(params_of(model_cls), effect.model.options, source=src, key="model")
+    actuator_params = parse_params(params_of(actuator_cls), effect.actuator.options, source=src, key="actuator")
+    return Plan(effect, model_cls, model_params, actuator_cls, actuator_params)
+
+
+def effective_limits(hard: SafetyLimits, effect: Effect) -> SafetyLimits:
+    """The actuator's hard limits, lowered by the effect file where it asks."""
+    try:
+        return hard.lowered(**dataclasses.asdict(effect.actuator.limits))
+    except EffectError as exc:
+        raise EffectError(str(exc), source=effect.source, key="actuator.limits") from None

@@ -1,0 +1,1 @@
+"""Built-in interpolators (numpy only). Neural ones live in the hapticfx-neural plugin."""

@@ -1,0 +1,130 @@
+"""The ``contact`` model: a simulated physical impact with the helmet's residual vibration."""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import EffectError
+from ..interfaces import Impact, Model
+from ..objects import PAPER_OBJECTS, ObjectInfo
+from ..params import BuildContext, doc
+from ..signal import Signal
+
+
+class ContactModel(Model):
+    """The drop-rig physics (:mod:`hapticfx.data.synth`) rendered as one impact profile in g.
+
+    The object falls on the helmet at the impact's velocity; the Hunt-Crossley
+    contact (rebounds included) drives the helmet's bounce, rocking and shell
+    modes; the 3-axis acceleration at the sensor position (no gravity, no
+    sensor noise or clipping) is reduced to 1D with ``reducer`` and sampled at
+    ``rate_hz`` by averaging over each sample interval. The profile starts
+    ``pre_ms`` before the first contact. Velocity 0 is silence. Material,
+    stiffness and damping default to the effect object's material.
+    """
+
+    name = "contact"
+    units = "g"
+    CACHE = 128
+
+    @dataclass(frozen=True)
+    class Params:
+        material: str | None = field(default=None, metadata=doc(
+            "contact material: plastic, concrete, wood, steel (default: the object's)"))
+        stiffness: float | None = field(default=None, metadata=doc(
+            "Hunt-Crossley stiffness k (N/m^1.5); default from the material", min=1e3, max=1e10))
+        damping: float | None = field(default=None, metadata=doc(
+            "Hunt-Crossley damping alpha (s/m); default from the material", min=0.0, max=10.0))
+        tilt_deg: float = field(default=0.0, metadata=doc("tilt of the object at contact (degrees)", min=-60.0, max=60.0))
+        offset_mm: float = field(default=0.0, metadata=doc("contact point offset from the crown (mm)", min=-80.0, max=80.0))
+        helmet_mass_kg: float = field(default=3.5, metadata=doc("effective mass of the helmet on the floor (kg)", min=0.1, max=100.0))
+        mass_kg: float | None = field(default=None, metadata=doc("object mass; default: the effect's object", min=1e-3, max=1e4))
+        reducer: str = field(default="max-min", metadata=doc("3-axis to 1D reducer (a registered reducer)"))
+        duration_ms: float = field(default=500.0, metadata=doc("length of the rendered profile (ms)", min=10.0, max=5000.0))
+        pre_ms: float = field(default=10.0, metadata=doc("silence before the first contact (ms)", min=0.0, max=1000.0))
+        rate_hz: float = field(default=1000.0, metadata=doc("sample rate of the profile (Hz)", min=100.0, max=96000.0))
+
+    def __init__(self, params: Params, context: BuildContext):
+        from ..data.contact import MATERIALS
+        from ..registry import get_registry
+
+        self.params = params
+        self.context = context
+        if params.material is not None and params.material not in MATERIALS:
+            raise EffectError(f"unknown material {params.material!r}; known: {', '.join(MATERIALS)}",
+                              source=context.source, key="model.material")
+        if params.pre_ms >= params.duration_ms:
+            raise EffectError(f"pre_ms {params.pre_ms} must be shorter than duration_ms {params.duration_ms}",
+                              source=context.source, key="model.pre_ms")
+        if params.mass_kg is None and context.object_info is None:
+            raise EffectError("the contact model needs an object: describe it with mass_kg (and dimensions_mm), "
+                              "or set model.mass_kg", source=context.source, key="model")
+        self.reducer = get_registry().create("reducer", params.reducer)
+        self._cache: OrderedDict[tuple[str, float], np.ndarray] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def object_for(self, object_id: str) -> ObjectInfo:
+        info = self.context.object_info
+        if object_id and (info is None or object_id != info.id) and object_id in PAPER_OBJECTS:
+            info = PAPER_OBJECTS[object_id]
+        if info is None:
+            info = ObjectInfo(object_id or "object", object_id or "object", self.params.mass_kg)
+        p = self.params
+        return replace(info, mass_kg=p.mass_kg if p.mass_kg is not None else info.mass_kg,
+                       material=p.material or info.material)
+
+    def _profile(self, info: ObjectInfo, velocity: float) -> np.ndarray:
+        from ..data.contact import material
+        from ..data.helmet import Helmet
+        from ..data.hertz import G
+        from ..data.synth import Drop, Rig, simulate_drop
+
+        p = self.params
+        n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
+        if velocity == 0.0:
+            return np.zeros(n)
+        over = max(1, math.ceil(20000.0 / p.rate_hz))
+        rig = Rig(helmet=Helmet(mass=p.helmet_mass_kg), fine_rate_hz=p.rate_hz * over)
+        mat = material(info.material)
+        drop = Drop(velocity, tilt=math.radians(p.tilt_deg), offset=p.offset_mm * 1e-3,
+                    stiffness=p.stiffness if p.stiffness is not None else mat.stiffness,
+                    damping=p.damping if p.damping is not None else mat.damping)
+        gap = 2e-4  # release height above the helmet (DropScene.gap): free fall to the first contact
+        onset = (math.sqrt(velocity * velocity + 2 * G * gap) - velocity) / G
+        lead = int(round((p.pre_ms / 1000.0 - onset) * rig.fine_rate_hz))  # > 0: silence to prepend
+        total = n * over
+        acc = simulate_drop(info, drop, rig=rig, duration_s=(total - lead + over) / rig.fine_rate_hz)
+        acc = np.concatenate([np.zeros((lead, 3)), acc]) if lead > 0 else acc[-lead:]
+        block = acc[:total].reshape(n, over, 3).mean(axis=1)
+        return self.reducer.reduce(block / G)
+
+    def render(self, impact: Impact) -> Signal:
+        info = self.object_for(impact.object)
+        key = (info.id, float(impact.velocity))
+        with self._lock:
+            cached = self._cache.get(key)
+            if cached is not None:
+                self._cache.move_to_end(key)
+        if cached is None:
+            cached = self._profile(info, float(impact.velocity))
+            with self._lock:
+                self._cache[key] = cached
+                while len(self._cache) > self.CACHE:
+                    self._cache.popitem(last=False)
+        return Signal(cached, self.params.rate_hz)
+
+    def describe(self) -> dict:
+        from ..data.contact import material
+
+        p = self.params
+        info = self.context.object_info
+        mat = material(p.material or (info.material if info else "unknown"))
+        return {"model": self.name, "material": mat.name,
+                "stiffness": p.stiffness if p.stiffness is not None else mat.stiffness,
+                "damping": p.damping if p.damping is not None else mat.damping,
+                "reducer": p.reducer, "rate_hz": p.rate_hz}

@@ -1,0 +1,96 @@
+"""The paper's data-driven model: recorded profiles, interpolated between neighbours."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from ..data.dataset import Dataset, open_dataset
+from ..errors import HapticfxError, SignalError
+from ..interfaces import Impact, Interpolator, Model
+from ..params import BuildContext, doc
+from ..registry import get_registry
+from ..signal import Signal
+
+
+class DataDrivenModel(Model):
+    """Profile for a velocity from a dataset's bank and an interpolator.
+
+    A recorded velocity returns the recorded profile exactly; a velocity between
+    two recorded ones goes to the interpolator with its two neighbours. Outside
+    the recorded range the ``outside`` policy applies: ``scale`` (the nearest
+    recorded profile scaled by v / v_edge, so zero velocity is silence),
+    ``clamp`` (the nearest recorded profile) or ``refuse`` (an error).
+    """
+
+    name = "data-driven"
+    units = "g"
+
+    @dataclass(frozen=True)
+    class Params:
+        dataset: str = field(default="builtin:helmet-drops", metadata=doc("dataset path or builtin:NAME"))
+        reducer: str = field(default="max-min", metadata=doc("which bank: the reducer that made it"))
+        interpolator: str = field(default="linear", metadata=doc("registered interpolator name"))
+        interpolator_options: dict = field(default_factory=dict, metadata=doc("options passed to the interpolator"))
+        outside: Literal["scale", "clamp", "refuse"] = field(
+            default="scale", metadata=doc("velocities outside the recorded range: scale, clamp or refuse")
+        )
+
+    def __init__(self, params: Params, context: BuildContext):
+        self.params = params
+        self.context = context
+        self.dataset: Dataset = open_dataset(params.dataset, relative_to=context.base_dir)
+        self.interpolator: Interpolator = get_registry().create(
+            "interpolator", params.interpolator, **params.interpolator_options
+        )
+        self._prepared: set[str] = set()
+        self._lock = threading.Lock()
+        if context.object_id:
+            self.bank(context.object_id)  # load and prepare the effect's own object now
+
+    def bank(self, object_id: str):
+        bank = self.dataset.bank(object_id, self.params.reducer)
+        with self._lock:
+            if object_id not in self._prepared:
+                self.interpolator.prepare(bank, dataset=self.dataset, base_dir=self.context.base_dir)
+                self._prepared.add(object_id)
+        return bank
+
+    def profile(self, object_id: str, velocity: float) -> np.ndarray:
+        bank = self.bank(object_id)
+        i = bank.index_of(velocity)
+        if i is not None:
+            return bank.profiles[i].copy()
+        lo, hi = float(bank.velocities[0]), float(bank.velocities[-1])
+        if lo < velocity < hi:
+            lower, upper = bank.neighbours(velocity)
+            out = np.asarray(self.interpolator.interpolate(lower, upper, velocity), dtype=np.float64)
+            if out.shape != lower.samples.shape or not np.all(np.isfinite(out)):
+                raise HapticfxError(
+                    f"interpolator {self.params.interpolator!r} returned an invalid profile "
+                    f"(shape {out.shape}, finite={bool(np.all(np.isfinite(out)))}) at {velocity} m/s"
+                )
+            return out
+        if self.params.outside == "refuse":
+            raise SignalError(
+                f"velocity {velocity} m/s is outside the recorded range [{lo}, {hi}] of {object_id!r} "
+                "(model.outside is 'refuse')"
+            )
+        edge = 0 if velocity < lo else len(bank) - 1
+        ref = bank.profiles[edge].copy()
+        if self.params.outside == "scale":
+            ref *= velocity / bank.velocities[edge]
+        return ref
+
+    def render(self, impact: Impact) -> Signal:
+        object_id = impact.object or self.context.object_id
+        return Signal(self.profile(object_id, impact.velocity), self.dataset.rate_hz)
+
+    def describe(self) -> dict:
+        return {
+            "model": self.name, "dataset": str(self.dataset.path), "reducer": self.params.reducer,
+            "interpolator": self.params.interpolator, "outside": self.params.outside,
+        }

@@ -1,0 +1,142 @@
+"""The synchronous pipeline: effect -> model -> shaping -> safety limiter -> actuator.
+
+``Pipeline.from_effect("effects/falling_brick.yaml")`` builds everything an
+effect references (nothing else); ``impact(velocity=...)`` renders one impact,
+plays it and returns what was sent.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .actuators.virtual import MemoryActuator, WavActuator
+from .effect import Effect, Plan, check_effect, effective_limits, load_effect
+from .errors import DeviceError, EffectError
+from .interfaces import Actuator, Impact, Model
+from .params import BuildContext
+from .registry import Registry, get_registry
+from .safety import LimiterReport, SafetyLimiter
+from .shaping import shape
+from .signal import Signal, valid_velocity
+
+
+@dataclass(frozen=True)
+class Delivery:
+    """One rendered impact: the model's profile, what went to the actuator, and the limiter's account."""
+
+    impact: Impact
+    profile: Signal
+    output: Signal
+    limiter: LimiterReport
+
+
+def stand_in(device: str | int | None) -> tuple[type, str | None] | None:
+    """The virtual actuator a ``--device`` value names (``wav:PATH``, ``memory``), if any."""
+    if isinstance(device, str):
+        if device == "memory":
+            return MemoryActuator, None
+        if device.startswith("wav:"):
+            path = device[4:]
+            if not path:
+                raise DeviceError("--device wav:PATH needs a file name after 'wav:'")
+            return WavActuator, path
+    return None
+
+
+class Pipeline:
+    """Renders and plays impacts for one effect. Thread-safe; use as a context manager."""
+
+    def __init__(self, effect: Effect, *, device: str | int | None = None, registry: Registry | None = None):
+        self.effect = effect
+        self.plan: Plan = check_effect(effect, registry=registry or get_registry())
+        virtual = stand_in(device)
+        context = effect.context(device=None if virtual else device)
+        self.model: Model = self.plan.model_cls(self.plan.model_params, context)
+        device_actuator: Actuator = self.plan.actuator_cls(self.plan.actuator_params, context)
+        if virtual:
+            cls, path = virtual
+            params = cls.Params(path=str(Path(path).expanduser())) if cls is WavActuator else cls.Params()
+            self.actuator: Actuator = cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
+        else:
+            self.actuator = device_actuator
+        spec = self.actuator.spec
+        self.limits = effective_limits(spec.limits, effect)
+        self.actuator.limits = self.limits
+        self.limiter = SafetyLimiter(self.limits, spec.rate_hz)
+        self.gain = effect.actuator.gain if effect.actuator.gain is not None else spec.default_gain
+        units = getattr(self.model, "units", "g")
+        self.scale = 1.0 / effect.actuator.full_scale_g if units == "g" else 1.0
+        self._lock = threading.Lock()
+        self._opened = False
+        self._t0 = time.monotonic()
+
+    @classmethod
+    def from_effect(cls, effect: str | Path | Effect, *, device: str | int | None = None,
+                    registry: Registry | None = None) -> "Pipeline":
+        """Build from an effect file path (or a loaded :class:`Effect`)."""
+        if not isinstance(effect, Effect):
+            effect = load_effect(effect)
+        return cls(effect, device=device, registry=registry)
+
+    def open(self) -> "Pipeline":
+        if not self._opened:
+            self.actuator.open()
+            self._opened = True
+        return self
+
+    def close(self) -> None:
+        if self._opened:
+            self._opened = False
+            self.actuator.close()
+
+    def __enter__(self):
+        return self.open()
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+    def _impact(self, velocity, object) -> Impact:
+        v = self.effect.velocity_mps if velocity is None else valid_velocity(velocity)
+        return Impact(object or self.effect.object_id, v, time.monotonic() - self._t0)
+
+    def render(self, impact: Impact | None = None, *, velocity: float | None = None, object: str | None = None) -> Delivery:
+        """Model, shaping and safety limiter, without playing."""
+        impact = impact or self._impact(velocity, object)
+        profile = self.model.render(impact)
+        shaped = shape(profile, self.actuator.spec, gain=self.gain, scale=self.scale)
+        with self._lock:
+            out = self.limiter.process(shaped.samples, at_s=impact.time_s)
+            report = self.limiter.report()
+        return Delivery(impact, profile, shaped.with_samples(out), report)
+
+    def impact(self, *, velocity: float | None = None, object: str | None = None) -> Delivery:
+        """Render one impact and play it; returns what was sent to the actuator."""
+        if not self._opened:
+            raise DeviceError("the pipeline is not open: use `with pipeline:` or call open() first")
+        delivery = self.render(velocity=velocity, object=object)
+        self.actuator.play(delivery.output)
+        return delivery
+
+    def describe(self) -> dict:
+        """What this pipeline loaded, for ``hapticfx info``."""
+        reg = get_registry()
+        m, a = self.plan.model_registration(reg), self.plan.actuator_registration(reg)
+        spec = self.actuator.spec
+        return {
+            "effect": self.effect.name, "file": self.effect.source, "object": self.effect.object_id,
+            "velocity_mps": self.effect.velocity_mps,
+            "model": {**self.model.describe(), "plugin": f"{m.plugin} ({m.distribution} {m.version})"},
+            "actuator": {
+                "type": self.effect.actuator.type, "output": self.actuator.describe(),
+                "plugin": f"{a.plugin} ({a.distribution} {a.version})", "rate_hz": spec.rate_hz,
+                "band_hz": list(spec.band_hz), "volts_peak": spec.volts_peak, "waveform": spec.waveform,
+                "gain": self.gain, "limits": self.limits.__dict__,
+            },
+        }
+
+
+__all__ = ["Delivery", "Pipeline", "EffectError"]

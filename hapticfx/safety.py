@@ -1,0 +1,164 @@
+"""The safety limiter: the last stage before every actuator; it cannot be disabled.
+
+It enforces :class:`~hapticfx.interfaces.SafetyLimits` on normalised output
+(1.0 = the actuator's full range): a hard peak, an RMS ceiling over a sliding
+window, and for pulse actuators a maximum on-time and duty cycle. It is
+stateful so that streaming actuators can feed it block by block; every
+intervention is counted.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from .interfaces import SafetyLimits
+from .signal import valid_signal
+
+
+@dataclass(frozen=True)
+class LimiterReport:
+    """How often each limit acted, and the largest reduction applied."""
+
+    peak_events: int = 0
+    rms_events: int = 0
+    on_time_events: int = 0
+    duty_events: int = 0
+    max_reduction_db: float = 0.0
+
+    @property
+    def total(self) -> int:
+        return self.peak_events + self.rms_events + self.on_time_events + self.duty_events
+
+    def summary(self) -> str:
+        if not self.total:
+            return "safety limiter: no limiting"
+        parts = [f"{n} {label}" for n, label in (
+            (self.peak_events, "peak"), (self.rms_events, "RMS"),
+            (self.on_time_events, "on-time"), (self.duty_events, "duty-cycle"),
+        ) if n]
+        return f"safety limiter acted: {', '.join(parts)} (max reduction {self.max_reduction_db:.1f} dB)"
+
+
+class SafetyLimiter:
+    """Enforces limits on a stream of normalised samples at ``rate_hz``.
+
+    ``process`` never returns a sample above ``limits.peak`` in magnitude, and
+    never lets the RMS over any ``limits.rms_window_s`` window (including
+    windows spanning earlier calls) exceed ``limits.rms``. For pulse limits,
+    the time above ``on_threshold`` is capped per pulse and over
+    ``duty_window_s``.
+    """
+
+    on_threshold = 0.05
+
+    def __init__(self, limits: SafetyLimits, rate_hz: float):
+        self.limits = limits
+        self.rate_hz = float(rate_hz)
+        self._win = max(1, int(round(limits.rms_window_s * self.rate_hz)))
+        self._tail = np.zeros(0)  # last win-1 output samples, for windows across calls
+        self._on_history: deque[tuple[float, float]] = deque()  # (time_s, on_s) per call
+        self._clock_s = 0.0
+        self._lock = threading.Lock()
+        self._counts = dict(peak_events=0, rms_events=0, on_time_events=0, duty_events=0)
+        self._max_reduction = 1.0
+
+    def _note(self, kind: str, factor: float) -> None:
+        self._counts[kind] += 1
+        self._max_reduction = min(self._max_reduction, factor)
+
+    def process(self, samples, *, at_s: float | None = None) -> np.ndarray:
+        """Return ``samples`` (time on the last axis) within the limits.
+
+        ``at_s`` is when the block starts on the caller's clock (seconds); a gap
+        since the previous block counts as silence for the RMS and duty windows.
+        Without it, blocks are taken as contiguous.
+        """
+        x = valid_signal(samples, name="limiter input").copy()
+        with self._lock:
+            lim = self.limits
+            if at_s is not None and at_s > self._clock_s:
+                gap_n = int((at_s - self._clock_s) * self.rate_hz)
+                keep = self._win - 1
+                self._tail = np.concatenate([self._tail, np.zeros(min(gap_n, keep))])[-keep:] if keep else self._tail
+                self._clock_s = float(at_s)
+            peak = float(np.max(np.abs(x)))
+            if peak > lim.peak:
+                factor = lim.peak / peak
+                x *= factor
+                self._note("peak_events", factor)
+            x = self._limit_rms(x)
+            if lim.max_on_s is not None or lim.max_duty is not None:
+                x = self._limit_pulses(x)
+            np.clip(x, -lim.peak, lim.peak, out=x)  # guarantee against rounding
+            self._clock_s += x.shape[-1] / self.rate_hz
+            keep = self._win - 1
+            flat = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
+            self._tail = np.concatenate([self._tail, flat])[-keep:] if keep else np.zeros(0)
+        return x
+
+    def _limit_rms(self, x: np.ndarray) -> np.ndarray:
+        lim = self.limits
+        mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
+        joined = np.concatenate([self._tail, mono])
+        sq = np.concatenate([[0.0], np.cumsum(joined * joined)])
+        n = min(self._win, joined.size)
+        window_energy = sq[n:] - sq[:-n]
+        # Energy the earlier (already sent) samples contribute cannot be changed:
+        # scale only the new samples so every window stays within budget.
+        budget = lim.rms * lim.rms * self._win
+        worst = float(np.max(window_energy)) if window_energy.size else 0.0
+        if worst <= budget * (1 + 1e-12):
+            return x
+        lo, hi = 0.0, 1.0
+        tail = self._tail
+        for _ in range(40):  # bisection on the gain for the new samples
+            mid = 0.5 * (lo + hi)
+            j = np.concatenate([tail, mono * mid])
+            s = np.concatenate([[0.0], np.cumsum(j * j)])
+            if float(np.max(s[n:] - s[:-n])) <= budget:
+                lo = mid
+            else:
+                hi = mid
+        factor = lo
+        self._note("rms_events", max(factor, 1e-12))
+        return x * factor
+
+    def _limit_pulses(self, x: np.ndarray) -> np.ndarray:
+        lim = self.limits
+        mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else np.abs(x)
+        on = mono > self.on_threshold
+        if lim.max_on_s is not None:
+            max_n = int(lim.max_on_s * self.rate_hz)
+            idx = np.flatnonzero(on)
+            if idx.size > max_n:
+                cut = idx[max_n]
+                x = x.copy()
+                x[..., cut:] = 0.0
+                on[cut:] = False
+                self._note("on_time_events", max_n / idx.size if idx.size else 1.0)
+        if lim.max_duty is not None:
+            now = self._clock_s
+            while self._on_history and self._on_history[0][0] < now - lim.duty_window_s:
+                self._on_history.popleft()
+            used = sum(s for _, s in self._on_history)
+            budget = lim.max_duty * lim.duty_window_s - used
+            on_s = float(np.count_nonzero(on)) / self.rate_hz
+            if on_s > budget:
+                allowed_n = max(0, int(budget * self.rate_hz))
+                idx = np.flatnonzero(on)
+                x = x.copy()
+                if allowed_n < idx.size:
+                    x[..., idx[allowed_n]:] = 0.0
+                self._note("duty_events", allowed_n / idx.size if idx.size else 0.0)
+                on_s = allowed_n / self.rate_hz
+            self._on_history.append((now, on_s))
+        return x
+
+    def report(self) -> LimiterReport:
+        with self._lock:
+            db = -20 * np.log10(self._max_reduction) if self._max_reduction > 0 else float("inf")
+            return LimiterReport(**self._counts, max_reduction_db=float(db))

@@ -1,0 +1,141 @@
+"""Training configuration: the YAML schema, the paper's sizes as defaults, validation.
+
+No torch here: the CLI reads and checks a configuration before importing it.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from hapticfx.errors import EffectError
+
+ARCHS = ("convbilstm", "lstm", "bilstm", "lstm-sae", "bilstm-ed", "convlstm-ed")
+
+# Paper Sect. 4.2 / 5.1. Table 3 gives sizes only for `lstm` (200) and `bilstm`
+# (2 x 200); the encoder-decoder baselines use the ConvBiLSTM's layer sizes, and
+# the stacked LSTM autoencoder a symmetric 128-64 / 64-128 stack.
+_ED = {"encoder_sizes": [256, 128, 64], "decoder_sizes": [256, 180, 150],
+       "encoder_dropout": 0.4, "decoder_dropout": 0.3}
+MODEL_DEFAULTS: dict[str, dict] = {
+    "convbilstm": {"steps": 50, "kernel": 3, **_ED},
+    "convlstm-ed": {"steps": 50, "kernel": 3, **_ED},
+    "bilstm-ed": {"steps": 50, **_ED},
+    "lstm-sae": {"steps": 50, "encoder_sizes": [128, 64], "decoder_sizes": [64, 128],
+                 "encoder_dropout": 0.2, "decoder_dropout": 0.2},
+    "lstm": {"steps": 50, "sizes": [200], "dropout": 0.0},
+    "bilstm": {"steps": 50, "sizes": [200, 200], "dropout": 0.0},
+}
+TRAINING_DEFAULTS = {
+    "epochs": 100, "batch_size": 8, "learning_rate": 1e-4, "beta1": 0.9, "val_fraction": 0.2,
+    "patience": 30, "seed": 0, "threads": 2,
+}
+TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
+            "model", "training", "out")
+
+
+@dataclass
+class TrainConfig:
+    """One training run: which interpolator, on which data, with which sizes and schedule."""
+
+    interpolator: str
+    dataset: str
+    reducer: str = "max-min"
+    objects: list[str] | None = None
+    train_velocities: list[float] | None = None
+    holdout_velocities: list[float] = field(default_factory=list)
+    model: dict = field(default_factory=dict)
+    training: dict = field(default_factory=dict)
+    out: str | None = None
+    source: str = "<config>"
+
+    def __post_init__(self):
+        if self.interpolator not in ARCHS:
+            raise EffectError(f"unknown neural interpolator {self.interpolator!r}; one of: {', '.join(ARCHS)}",
+                              source=self.source, key="interpolator")
+        self.model = _merge(MODEL_DEFAULTS[self.interpolator], self.model, self.source, "model")
+        self.training = _merge(TRAINING_DEFAULTS, self.training, self.source, "training")
+        _check_model(self.model, self.source)
+        _check_training(self.training, self.source)
+        for key in ("train_velocities", "holdout_velocities"):
+            vals = getattr(self, key)
+            if vals is not None:
+                if not isinstance(vals, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                         and v >= 0 for v in vals):
+                    raise EffectError("expected a list of non-negative velocities in m/s", source=self.source, key=key)
+                setattr(self, key, [float(v) for v in vals])
+        if self.objects is not None and not (isinstance(self.objects, list) and all(isinstance(o, str) for o in self.objects)):
+            raise EffectError("expected a list of object ids", source=self.source, key="objects")
+
+    def out_dir(self, dataset_name: str) -> Path:
+        return Path(self.out) if self.out else Path("checkpoints") / f"{self.interpolator}-{dataset_name}-{self.reducer}"
+
+    def as_dict(self) -> dict:
+        return {k: copy.deepcopy(getattr(self, k)) for k in TOP_KEYS}
+
+
+def _merge(defaults: dict, given, source: str, key: str) -> dict:
+    if given is None:
+        given = {}
+    if not isinstance(given, dict):
+        raise EffectError("expected a mapping", source=source, key=key)
+    unknown = sorted(set(given) - set(defaults))
+    if unknown:
+        raise EffectError(f"unknown key(s) {', '.join(unknown)}; allowed: {', '.join(defaults)}",
+                          source=source, key=key)
+    merged = copy.deepcopy(defaults)
+    merged.update(given)
+    return merged
+
+
+def _check_model(m: dict, source: str) -> None:
+    for k, v in m.items():
+        where = f"model.{k}"
+        if k.endswith("_sizes") or k == "sizes":
+            if not (isinstance(v, list) and v and all(isinstance(x, int) and not isinstance(x, bool) and x > 0 for x in v)):
+                raise EffectError("expected a non-empty list of positive integers", source=source, key=where)
+        elif k.endswith("dropout"):
+            if not (isinstance(v, (int, float)) and 0 <= v < 1):
+                raise EffectError("expected a number in [0, 1)", source=source, key=where)
+        elif k in ("steps", "kernel"):
+            if not (isinstance(v, int) and not isinstance(v, bool) and v > 0) or (k == "kernel" and v % 2 == 0):
+                raise EffectError("expected a positive integer (kernel: odd)", source=source, key=where)
+
+
+def _check_training(t: dict, source: str) -> None:
+    ints = {"epochs": 1, "batch_size": 1, "patience": 1, "seed": 0, "threads": 1}
+    for k, lo in ints.items():
+        v = t[k]
+        if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):
+            raise EffectError(f"expected an integer >= {lo}", source=source, key=f"training.{k}")
+    for k, lo, hi in (("learning_rate", 0, 1), ("beta1", 0, 1), ("val_fraction", 0, 0.9)):
+        v = t[k]
+        if not (isinstance(v, (int, float)) and not isinstance(v, bool) and lo <= v <= hi and (k == "val_fraction" or v > 0)):
+            raise EffectError(f"expected a number in [{lo}, {hi}]", source=source, key=f"training.{k}")
+
+
+def load_config(path: str | Path) -> TrainConfig:
+    """Read a training configuration YAML (safe loader; unknown keys are errors)."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise EffectError(f"cannot read: {exc.strerror}", source=str(path)) from exc
+    except yaml.YAMLError as exc:
+        raise EffectError(f"not valid YAML: {exc}", source=str(path)) from exc
+    return config_from_mapping(data, source=str(path))
+
+
+def config_from_mapping(data, *, source: str = "<config>") -> TrainConfig:
+    if not isinstance(data, dict):
+        raise EffectError("expected a mapping at the top level", source=source)
+    unknown = sorted(set(data) - set(TOP_KEYS))
+    if unknown:
+        raise EffectError(f"unknown key(s) {', '.join(unknown)}; allowed: {', '.join(TOP_KEYS)}", source=source)
+    for key in ("interpolator", "dataset"):
+        if not isinstance(data.get(key), str):
+            raise EffectError("required (a string)", source=source, key=key)
+    return TrainConfig(**data, source=source)

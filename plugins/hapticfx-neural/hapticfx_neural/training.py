@@ -1,0 +1,214 @@
+"""Training loop: RMSE loss, Adam, early stopping on a validation split, checkpoints, resume."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from hapticfx.errors import CheckpointError, DatasetError
+
+from . import checkpoint
+from .networks import build_network
+from .samples import Triples, decode, encode
+
+
+def make_network(arch: str, model: dict, n_samples: int) -> torch.nn.Module:
+    steps = int(model["steps"])
+    if n_samples % steps:
+        raise DatasetError(f"profiles of {n_samples} samples cannot be cut into model.steps={steps} equal steps")
+    return build_network(arch, model, width=n_samples // steps, steps=steps)
+
+
+def n_parameters(net: torch.nn.Module) -> int:
+    return int(sum(p.numel() for p in net.parameters()))
+
+
+def _rmse(pred, y):
+    return torch.sqrt(torch.mean((pred - y) ** 2) + 1e-12)
+
+
+def _split(n: int, fraction: float, gen: torch.Generator) -> tuple[np.ndarray, np.ndarray]:
+    n_val = 0 if fraction <= 0 or n < 5 else max(1, int(round(fraction * n)))
+    perm = torch.randperm(n, generator=gen).numpy()
+    return np.sort(perm[n_val:]), np.sort(perm[:n_val])
+
+
+def _optimizer_tensors(opt: torch.optim.Adam) -> tuple[dict, dict]:
+    sd = opt.state_dict()
+    tensors = {}
+    for idx, st in sd["state"].items():
+        for k, v in st.items():
+            tensors[f"opt.{idx}.{k}"] = v if torch.is_tensor(v) else torch.tensor(v)
+    return tensors, {"param_groups": sd["param_groups"]}
+
+
+def _load_optimizer(opt: torch.optim.Adam, tensors: dict, groups: list) -> None:
+    state: dict = {}
+    for key, v in tensors.items():
+        if key.startswith("opt."):
+            _, idx, name = key.split(".", 2)
+            state.setdefault(int(idx), {})[name] = v
+    opt.load_state_dict({"state": state, "param_groups": groups})
+
+
+def train_network(arch: str, model: dict, training: dict, data: Triples, *, dataset_meta: dict,
+                  out: Path | None = None, resume: bool = False, progress: bool = True,
+                  label: str | None = None) -> tuple[torch.nn.Module, dict]:
+    """Train interpolator ``arch`` on ``data``; returns the best network (by validation RMSE) and its metadata.
+
+    With ``out``, writes ``model.safetensors/.json`` (best) and ``resume.*`` (last
+    epoch) there; ``resume=True`` continues from ``out/resume.*``.
+    """
+    if data.target is None or len(data) == 0:
+        raise DatasetError("no training triples: a target needs a recorded velocity on each side")
+    torch.set_num_threads(int(training["threads"]))
+    seed = int(training["seed"])
+    torch.manual_seed(seed)
+    gen = torch.Generator().manual_seed(seed)
+    n_samples = data.lower.shape[1]
+    net = make_network(arch, model, n_samples)
+    opt = torch.optim.Adam(net.parameters(), lr=training["learning_rate"], betas=(training["beta1"], 0.999))
+    tr_idx, va_idx = _split(len(data), training["val_fraction"], gen)
+    v_mean = float(np.mean(data.v[tr_idx]))
+    v_std = float(np.std(data.v[tr_idx])) or 1.0
+    def enc(t: Triples):
+        x, vel, _, y = encode(t, steps=model["steps"], v_mean=v_mean, v_std=v_std)
+        return torch.from_numpy(x), torch.from_numpy(vel), torch.from_numpy(y)
+
+    xt, vt, yt = enc(data.subset(tr_idx))
+    xv, vv, yv = enc(data.subset(va_idx)) if len(va_idx) else (None, None, None)
+    meta = {
+        "interpolator": arch, "model": copy.deepcopy(model), "n_samples": int(n_samples), "steps": int(model["steps"]),
+        "normalisation": {"profile": "divided by max(|lower|, |upper|) per impact",
+                          "velocity_features": ["(v - v_lower) / (v_upper - v_lower)", "(v - velocity_mean) / velocity_std"],
+                          "velocity_mean": v_mean, "velocity_std": v_std},
+        "dataset": dataset_meta, "parameters": n_parameters(net),
+        "training": {**copy.deepcopy(training), "n_train": int(len(tr_idx)), "n_val": int(len(va_idx))},
+    }
+    state = {"epoch": 0, "best": math.inf, "best_epoch": 0, "bad": 0, "elapsed_s": 0.0, "history": []}
+    best_state = copy.deepcopy(net.state_dict())
+    if resume:
+        state, best_state = _resume(out, net, opt, gen, meta)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=training["epochs"], initial=state["epoch"], desc=label or arch, unit="epoch",
+                   file=sys.stderr, leave=True, dynamic_ncols=True)
+    bs = int(training["batch_size"])
+    t0 = time.perf_counter() - state["elapsed_s"]
+    while state["epoch"] < training["epochs"] and state["bad"] < training["patience"]:
+        net.train()
+        perm = torch.randperm(len(tr_idx), generator=gen)
+        total = 0.0
+        for start in range(0, len(perm), bs):
+            b = perm[start:start + bs]
+            opt.zero_grad()
+            loss = _rmse(net(xt[b], vt[b]), yt[b])
+            loss.backward()
+            opt.step()
+            total += loss.item() ** 2 * len(b)
+        train_rmse = math.sqrt(total / len(perm))
+        net.eval()
+        with torch.no_grad():
+            val_rmse = float(_rmse(net(xv, vv), yv)) if xv is not None else train_rmse
+        state["epoch"] += 1
+        state["history"].append([train_rmse, val_rmse])
+        if val_rmse < state["best"] - 1e-7:
+            state.update(best=val_rmse, best_epoch=state["epoch"], bad=0)
+            best_state = copy.deepcopy(net.state_dict())
+            if out is not None:
+                _save_best(out, best_state, meta, state, t0)
+        else:
+            state["bad"] += 1
+        state["elapsed_s"] = time.perf_counter() - t0
+        if out is not None:
+            _save_resume(out, net, opt, gen, meta, state)
+        if bar is not None:
+            bar.set_postfix(loss=f"{train_rmse:.4f}", val=f"{val_rmse:.4f}", best=state["best_epoch"])
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    net.load_state_dict(best_state)
+    net.eval()
+    meta["training"].update(_summary(state, t0), stopped_early=state["bad"] >= training["patience"])
+    if out is not None:
+        _save_best(out, best_state, meta, state, t0)
+    return net, meta
+
+
+def _summary(state: dict, t0: float) -> dict:
+    return {"epochs_run": state["epoch"], "best_epoch": state["best_epoch"], "best_val_rmse_normalised": state["best"],
+            "train_time_s": time.perf_counter() - t0, "history": state["history"]}
+
+
+def _save_best(out: Path, best_state: dict, meta: dict, state: dict, t0: float) -> None:
+    m = copy.deepcopy(meta)
+    m["training"].update(_summary(state, t0))
+    checkpoint.save(Path(out) / "model.safetensors", best_state, m)
+
+
+def _save_resume(out: Path, net, opt, gen, meta: dict, state: dict) -> None:
+    tensors = {f"net.{k}": v for k, v in net.state_dict().items()}
+    opt_t, opt_meta = _optimizer_tensors(opt)
+    tensors.update(opt_t)
+    tensors["rng.torch"] = torch.get_rng_state()
+    tensors["rng.shuffle"] = gen.get_state()
+    checkpoint.save(Path(out) / "resume.safetensors", tensors, {**meta, "resume": {**state, **opt_meta}})
+
+
+def _resume(out: Path | None, net, opt, gen, meta: dict) -> tuple[dict, dict]:
+    if out is None:
+        raise CheckpointError("resume needs an output directory")
+    path = Path(out) / "resume.safetensors"
+    old = checkpoint.read_meta(path)
+    for key in ("interpolator", "model", "n_samples", "dataset", "normalisation"):
+        if old.get(key) != json.loads(json.dumps(meta[key])):
+            raise CheckpointError(f"{path}: cannot resume: its {key} differs from this configuration "
+                                  f"({old.get(key)!r} vs {meta[key]!r}); start afresh without --resume")
+    changed = [k for k in meta["training"] if k not in ("epochs", "patience") and old["training"].get(k) != meta["training"][k]]
+    if changed:
+        raise CheckpointError(f"{path}: cannot resume: training.{changed[0]} differs from the checkpoint")
+    tensors = checkpoint.load_tensors(path)
+    net.load_state_dict({k[4:]: v for k, v in tensors.items() if k.startswith("net.")})
+    _load_optimizer(opt, tensors, old["resume"]["param_groups"])
+    torch.set_rng_state(tensors["rng.torch"])
+    gen.set_state(tensors["rng.shuffle"])
+    state = {k: old["resume"][k] for k in ("epoch", "best", "best_epoch", "bad", "elapsed_s", "history")}
+    best_path = Path(out) / "model.safetensors"
+    best = checkpoint.load_tensors(best_path) if best_path.is_file() else copy.deepcopy(net.state_dict())
+    return state, best
+
+
+def load_network(path: Path, *, arch: str, n_samples: int | None = None, dataset: str | None = None,
+                 reducer: str | None = None) -> tuple[torch.nn.Module, dict]:
+    """A trained network from a checkpoint, refused clearly if it was built for something else."""
+    meta = checkpoint.read_meta(path)
+    checkpoint.check_compatible(meta, path, arch=arch, n_samples=n_samples, dataset=dataset, reducer=reducer)
+    net = make_network(arch, meta["model"], int(meta["n_samples"]))
+    tensors = checkpoint.load_tensors(path)
+    try:
+        net.load_state_dict(tensors)
+    except RuntimeError as exc:
+        first = str(exc).strip().splitlines()
+        raise CheckpointError(f"{path}: weights do not fit the {arch} network described in its .json "
+                              f"({first[1].strip() if len(first) > 1 else first[0]})") from exc
+    net.eval()
+    return net, meta
+
+
+def predict(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
+    """Profiles ``(n, N)`` (float64, bank units) predicted for ``data``."""
+    norm = meta["normalisation"]
+    x, vel, scale, _ = encode(data, steps=int(meta["steps"]), v_mean=norm["velocity_mean"], v_std=norm["velocity_std"])
+    outs = []
+    with torch.inference_mode():
+        for s in range(0, len(x), batch):
+            outs.append(net(torch.from_numpy(x[s:s + batch]), torch.from_numpy(vel[s:s + batch])).numpy())
+    return decode(np.concatenate(outs), scale)

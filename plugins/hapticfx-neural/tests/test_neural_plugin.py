@@ -1,0 +1,97 @@
+"""Registration stays cheap; the commands answer; the benchmark runs end to end on a tiny dataset."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import yaml
+from neural_testkit import TINY_BY_ARCH, tiny_config
+
+from hapticfx_neural.plugin import INTERPOLATORS
+
+
+def _run(code: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True)
+
+
+def test_registration_and_linear_playback_never_import_torch(tmp_path, syn_dataset):
+    effect = tmp_path / "dd.yaml"
+    effect.write_text(f"name: dd\nobject: plastic-frame\nmodel: {{type: data-driven, dataset: {syn_dataset}, "
+                      "interpolator: linear}\nactuator: {type: memory}\n")
+    r = _run(f"""
+        import json, sys
+        import hapticfx
+        from hapticfx.registry import get_registry
+        from hapticfx.cli import build_app
+        names = get_registry().names("interpolator"); build_app()
+        from hapticfx.pipeline import Pipeline
+        with Pipeline.from_effect({str(effect)!r}) as p:
+            p.impact(velocity=3.3)
+        print(json.dumps([names, "torch" in sys.modules]))
+    """)
+    assert r.returncode == 0, r.stderr
+    names, torch_loaded = json.loads(r.stdout.strip().splitlines()[-1])
+    assert set(INTERPOLATORS) <= set(names)
+    assert torch_loaded is False
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "hapticfx", *args], capture_output=True, text=True)
+
+
+def test_train_command_and_clear_errors(tmp_path, syn_dataset):
+    cfg = tiny_config(tmp_path, syn_dataset, epochs=2)
+    r = _cli("train", str(cfg), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "wrote" in r.stdout and (tmp_path / "ck-convbilstm" / "model.json").is_file()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("interpolator: convbilstm\ndataset: x\ntraining: {epoch: 3}\n")
+    r = _cli("train", str(bad))
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert f"{bad}: training: unknown key(s) epoch" in r.stderr
+
+
+def test_bench_command_runs_on_a_tiny_dataset(tmp_path, syn_dataset):
+    over = tmp_path / "tiny.yaml"
+    over.write_text(yaml.safe_dump({k: {"model": v} for k, v in TINY_BY_ARCH.items()}))
+    out = tmp_path / "bench"
+    r = _cli("bench", "interpolators", "--dataset", str(syn_dataset), "--methods", "lstm,convbilstm",
+             "--epochs", "2", "--cv-epochs", "1", "--cv-methods", "lstm", "--repeats", "5", "--grid-step", "0.05",
+             "--config", str(over), "--out", str(out))
+    assert r.returncode == 0, r.stderr[-2000:]
+    for name in ("tables.md", "results.json", "error_vs_latency.png", "fig8.png"):
+        assert (out / name).is_file(), name
+    res = json.loads((out / "results.json").read_text())
+    assert res["test"] == [3.96, 4.43] and res["train"] == [2.8, 3.13, 3.43, 4.85, 5.05]
+    assert set(res["methods"]) == {"linear", "lstm", "convbilstm"} and set(res["cv"]) == {"linear", "lstm"}
+    assert "cache" in res["methods"]["convbilstm"]
+    assert res["methods"]["linear"]["continuity"]["direct"]["jump_g"] < 1e-5
+    assert "Table 3" in r.stdout
+
+
+def test_bench_refuses_an_unrecorded_test_velocity(syn_dataset):
+    r = _cli("bench", "interpolators", "--dataset", str(syn_dataset), "--test", "3.5", "--no-cv")
+    assert r.returncode == 2 and "--test velocity 3.5 m/s is not recorded" in r.stderr
+
+
+def test_shipped_weights_play_the_brick_with_convbilstm(tmp_path):
+    import numpy as np
+    import pytest
+
+    from hapticfx.data.dataset import BUILTIN_DIR
+    from hapticfx_neural.checkpoint import default_weights
+
+    if not (BUILTIN_DIR / "helmet-drops" / "dataset.json").is_file():
+        pytest.skip("the built-in helmet-drops dataset is not generated in this tree")
+    assert default_weights("helmet-drops", "max-min", "convbilstm") is not None
+    effect = tmp_path / "brick.yaml"
+    effect.write_text("name: brick\nobject: concrete-brick\nmodel: {type: data-driven, dataset: builtin:helmet-drops, "
+                      "reducer: max-min, interpolator: convbilstm}\nactuator: {type: memory}\n")
+    from hapticfx.pipeline import Pipeline
+
+    with Pipeline.from_effect(effect) as p:
+        d = p.impact(velocity=3.8)
+    assert d.profile.n_samples == 500 and np.all(np.isfinite(d.profile.samples)) and d.profile.peak > 0

@@ -1,0 +1,145 @@
+"""Training: tiny configurations for a few steps; determinism, resume, checkpoints and refusals."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from neural_testkit import TINY_BY_ARCH, tiny_config
+
+from hapticfx.errors import CheckpointError, EffectError
+from hapticfx_neural import checkpoint
+from hapticfx_neural.config import ARCHS, MODEL_DEFAULTS, config_from_mapping, load_config
+from hapticfx_neural.run import train_from_config
+
+
+def _weights(path):
+    return checkpoint.load_tensors(path)
+
+
+def test_paper_sizes_are_the_defaults():
+    m = MODEL_DEFAULTS["convbilstm"]
+    assert m["encoder_sizes"] == [256, 128, 64] and m["decoder_sizes"] == [256, 180, 150]
+    assert (m["kernel"], m["encoder_dropout"], m["decoder_dropout"]) == (3, 0.4, 0.3)
+    cfg = config_from_mapping({"interpolator": "convbilstm", "dataset": "x"})
+    assert (cfg.training["learning_rate"], cfg.training["batch_size"]) == (1e-4, 8)
+    assert MODEL_DEFAULTS["lstm"]["sizes"] == [200] and MODEL_DEFAULTS["bilstm"]["sizes"] == [200, 200]
+
+
+@pytest.mark.parametrize("arch", ARCHS)
+def test_every_architecture_trains_and_predicts(tmp_path, syn_dataset, arch):
+    meta, path = train_from_config(load_config(tiny_config(tmp_path, syn_dataset, arch, epochs=2)), progress=False)
+    assert meta["training"]["epochs_run"] == 2 and path.is_file()
+    from hapticfx.data.dataset import open_dataset
+    from hapticfx.registry import get_registry
+
+    ds = open_dataset(syn_dataset)
+    bank = ds.bank("plastic-frame", "max-min")
+    interp = get_registry().create("interpolator", arch, weights=str(path))
+    interp.prepare(bank, dataset=ds)
+    lo, hi = bank.neighbours(3.5)
+    out = interp.interpolate(lo, hi, 3.5)
+    assert out.shape == (100,) and np.all(np.isfinite(out))
+
+
+def test_same_seed_same_weights_and_resume_is_exact(tmp_path, syn_dataset):
+    a = tmp_path / "a"
+    a.mkdir()
+    b = tmp_path / "b"
+    b.mkdir()
+    ca = load_config(tiny_config(a, syn_dataset, epochs=4, patience=100))
+    train_from_config(ca, progress=False)
+    cb = load_config(tiny_config(b, syn_dataset, epochs=4, patience=100))
+    cb.training["epochs"] = 2
+    train_from_config(cb, progress=False)
+    cb.training["epochs"] = 4
+    meta, _ = train_from_config(cb, resume=True, progress=False)
+    assert meta["training"]["epochs_run"] == 4
+    wa = _weights(a / "ck-convbilstm" / "resume.safetensors")
+    wb = _weights(b / "ck-convbilstm" / "resume.safetensors")
+    assert wa.keys() == wb.keys()
+    for k in wa:
+        if k.startswith("net."):
+            assert np.array_equal(wa[k].numpy(), wb[k].numpy()), k
+
+
+def test_resume_with_another_architecture_is_refused(tmp_path, syn_dataset):
+    cfg = load_config(tiny_config(tmp_path, syn_dataset, epochs=1))
+    train_from_config(cfg, progress=False)
+    other = load_config(tiny_config(tmp_path, syn_dataset, epochs=2))
+    other.model["decoder_sizes"] = [7]
+    with pytest.raises(CheckpointError, match="cannot resume: its model differs"):
+        train_from_config(other, resume=True, progress=False)
+
+
+def test_checkpoint_for_another_architecture_or_dataset_is_refused(trained, syn_dataset):
+    from hapticfx.data.dataset import open_dataset
+    from hapticfx.registry import get_registry
+
+    ds = open_dataset(syn_dataset)
+    bank = ds.bank("plastic-frame", "max-min")
+    with pytest.raises(CheckpointError, match="built for interpolator 'convbilstm', not 'lstm'"):
+        get_registry().create("interpolator", "lstm", weights=str(trained)).prepare(bank, dataset=ds)
+
+    class Other:
+        name = "another-dataset"
+
+    with pytest.raises(CheckpointError, match="trained on dataset 'synthetic', not 'another-dataset'"):
+        get_registry().create("interpolator", "convbilstm", weights=str(trained)).prepare(bank, dataset=Other())
+
+
+def test_checkpoint_whose_weights_do_not_fit_its_description_is_refused(tmp_path, trained):
+    import shutil
+
+    from hapticfx_neural.training import load_network
+
+    for name in ("model.safetensors", "model.json"):
+        shutil.copy(trained.parent / name, tmp_path / name)
+    meta = json.loads((tmp_path / "model.json").read_text())
+    meta["model"]["decoder_sizes"] = [9]
+    (tmp_path / "model.json").write_text(json.dumps(meta))
+    with pytest.raises(CheckpointError, match="weights do not fit the convbilstm network"):
+        load_network(tmp_path / "model.safetensors", arch="convbilstm")
+    (tmp_path / "model.safetensors").write_bytes(b"not safetensors")
+    with pytest.raises(CheckpointError, match="corrupt or unreadable"):
+        load_network(tmp_path / "model.safetensors", arch="convbilstm")
+
+
+def test_no_weights_for_the_dataset_names_the_command(syn_dataset):
+    from hapticfx.data.dataset import open_dataset
+    from hapticfx.registry import get_registry
+
+    ds = open_dataset(syn_dataset)
+    with pytest.raises(CheckpointError, match="hapticfx train CONFIG.yaml"):
+        get_registry().create("interpolator", "bilstm").prepare(ds.bank("plastic-frame", "max-min"), dataset=ds)
+
+
+@pytest.mark.parametrize("bad, key", [
+    ({"interpolator": "convbilstm", "dataset": "x", "modle": {}}, "unknown key"),
+    ({"interpolator": "gru", "dataset": "x"}, "interpolator"),
+    ({"interpolator": "lstm", "dataset": "x", "model": {"hidden": 3}}, "model"),
+    ({"interpolator": "lstm", "dataset": "x", "training": {"epochs": 0}}, "training.epochs"),
+    ({"interpolator": "convbilstm", "dataset": "x", "model": {"kernel": 4}}, "model.kernel"),
+])
+def test_bad_config_names_file_and_key(tmp_path, bad, key):
+    import yaml
+
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(bad))
+    with pytest.raises(EffectError) as err:
+        load_config(path)
+    assert str(path) in str(err.value) and key in str(err.value)
+
+
+def test_steps_must_divide_the_profile_length(tmp_path, syn_dataset):
+    from hapticfx.errors import DatasetError
+
+    cfg = load_config(tiny_config(tmp_path, syn_dataset))
+    cfg.model["steps"] = 7
+    with pytest.raises(DatasetError, match="cannot be cut into model.steps=7"):
+        train_from_config(cfg, progress=False)
+
+
+def test_tiny_config_table_covers_every_architecture():
+    assert set(TINY_BY_ARCH) == set(ARCHS)

@@ -1,0 +1,146 @@
+"""The sound-card actuators of the paper (Sect. 3.2): a vibro-transducer and a haptuator.
+
+Both are voice-coil actuators driven from a sound card through an amplifier;
+full scale of the sound card (1.0) is taken to be the actuator's rated peak
+voltage after the amplifier. Constructing one does not touch the device;
+``open`` finds it, agrees on a sample rate and joins the device's shared,
+mixing output stream on the actuator's channel.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from dataclasses import dataclass, field
+from typing import ClassVar, Literal
+
+from hapticfx.errors import DeviceError
+from hapticfx.interfaces import Actuator, ActuatorSpec, SafetyLimits
+from hapticfx.params import BuildContext, doc
+from hapticfx.shaping import resample
+from hapticfx.signal import Signal
+
+from . import stream as streams
+from .devices import negotiate_rate, resolve_device
+
+
+@dataclass(frozen=True)
+class SoundCardParams:
+    """Options of a sound-card actuator (effect file keys under ``actuator:``)."""
+
+    rate_hz: int = field(default=48000, metadata=doc("requested sample rate; the device default if refused", min=8000, max=768000))
+    latency: Literal["low", "high"] | float = field(
+        default="low", metadata=doc("output latency: PortAudio's 'low' or 'high' class, or seconds", min=0.001, max=1.0))
+    blocksize: int = field(default=0, metadata=doc("frames per audio callback; 0 lets the host choose", min=0, max=8192))
+    max_impacts: int = field(default=64, metadata=doc("impacts sounding at once; the oldest is cut when full", min=1, max=4096))
+    watchdog_s: float = field(default=0.5, metadata=doc("a stream silent this long counts as failed", min=0.05, max=5.0))
+
+
+class SoundCardActuator(Actuator):
+    """A voice-coil actuator on one channel of a sound card, mixed with its other impacts.
+
+    ``play`` queues the signal and returns at once; overlapping impacts add up
+    in one stream, and a :class:`~hapticfx.safety.SafetyLimiter` with this
+    actuator's limits runs on the sum. ``drain`` waits until they were heard;
+    ``close`` drains, then leaves the stream.
+    """
+
+    Params = SoundCardParams
+    name: ClassVar[str]
+    band_hz: ClassVar[tuple[float, float]]
+    volts_peak: ClassVar[float]
+    default_gain: ClassVar[float]
+    hard_limits: ClassVar[SafetyLimits]
+
+    def __init__(self, params: SoundCardParams | None = None, context: BuildContext | None = None):
+        self.params = params if params is not None else self.Params()
+        context = context if context is not None else BuildContext()
+        self.device_request = context.device
+        self.channel = 0 if context.channel is None else int(context.channel)
+        if self.channel < 0:
+            raise DeviceError(f"{self.name}: channel must be >= 0, got {self.channel}", source=context.source)
+        self.spec = ActuatorSpec(
+            rate_hz=float(self.params.rate_hz), volts_peak=self.volts_peak, band_hz=self.band_hz,
+            waveform=True, limits=self.hard_limits, default_gain=self.default_gain,
+        )
+        self.limits = self.spec.limits
+        self.note: str | None = None
+        self._stream: streams.DeviceStream | None = None
+
+    def open(self) -> None:
+        if self._stream is not None:
+            return
+        device = resolve_device(self.device_request)
+        rate, self.note = negotiate_rate(device, self.spec.rate_hz, channels=min(2, device.channels))
+        if self.note:
+            print(f"{self.name}: {self.note}", file=sys.stderr)
+        self.spec = dataclasses.replace(self.spec, rate_hz=rate)
+        p = self.params
+        self._stream = streams.acquire(
+            device, channel=self.channel, rate_hz=rate, limits=self.limits, latency=p.latency,
+            blocksize=p.blocksize, max_voices=p.max_impacts, watchdog_s=p.watchdog_s,
+        )
+
+    def _require_stream(self) -> streams.DeviceStream:
+        if self._stream is None:
+            raise DeviceError(f"{self.name} is not open; use it as a context manager or call open()")
+        return self._stream
+
+    def play(self, signal: Signal) -> None:
+        """Queue ``signal`` (normalised, limited) on this actuator's channel; returns at once."""
+        if not isinstance(signal, Signal):
+            signal = Signal(signal, self.spec.rate_hz)
+        stream = self._require_stream()
+        if signal.samples.ndim != 1:
+            raise DeviceError(f"{self.name} takes one channel; got a signal of shape {signal.samples.shape}")
+        if signal.rate_hz != stream.rate_hz:
+            signal = resample(signal, stream.rate_hz)
+        stream.play(self.channel, signal.samples)
+
+    def check(self) -> None:
+        """Raise :class:`DeviceError` if the device failed since it was opened."""
+        self._require_stream().check()
+
+    def drain(self, timeout: float | None = 10.0) -> None:
+        """Wait until every queued impact has been output; ``DeviceError`` on failure or timeout."""
+        self._require_stream().drain(timeout)
+
+    wait = drain
+
+    def close(self) -> None:
+        stream, self._stream = self._stream, None
+        if stream is not None:
+            streams.release(stream, self.channel, drain_timeout_s=10.0)
+
+    @property
+    def underflows(self) -> int:
+        """Output underflows of the device's stream so far."""
+        return self._require_stream().underflows
+
+    def limiter_report(self):
+        """What the mixer's safety limiter on this channel did (the sum of overlapping impacts)."""
+        return self._require_stream().mixer.report(self.channel)
+
+    def describe(self) -> str:
+        where = "default device" if self.device_request in (None, "default") else f"device {self.device_request!r}"
+        return f"{self.name} on {where}, channel {self.channel}, {self.spec.rate_hz:g} Hz"
+
+
+class VibroTransducer(SoundCardActuator):
+    """Vibro-transducer Vp408: +-5 V input, 20-15,000 Hz response (paper Sect. 3.2)."""
+
+    name = "vibro-transducer"
+    band_hz = (20.0, 15000.0)
+    volts_peak = 5.0
+    default_gain = 0.8
+    hard_limits = SafetyLimits(peak=1.0, rms=0.7)
+
+
+class Haptuator(SoundCardActuator):
+    """Haptuator MM1C (Tactile Labs): +-5 V input, 30-800 Hz response (paper Sect. 3.2)."""
+
+    name = "haptuator"
+    band_hz = (30.0, 800.0)
+    volts_peak = 5.0
+    default_gain = 0.6
+    hard_limits = SafetyLimits(peak=1.0, rms=0.5)

@@ -1,0 +1,219 @@
+"""One PortAudio output stream per device, shared by the actuators on its channels.
+
+The stream's callback asks a :class:`~hapticfx_soundcard.mixer.Mixer` for each
+block. A watchdog thread and PortAudio's finished callback turn a stream that
+stopped on its own (sound server killed, device removed) into a
+:class:`DeviceError` within ``watchdog_s``; nothing waits on a dead stream.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+from hapticfx.errors import DeviceError
+from hapticfx.interfaces import SafetyLimits
+
+from .devices import OutputDevice, import_sounddevice
+from .mixer import Mixer
+
+_streams: dict[int, "DeviceStream"] = {}
+_streams_lock = threading.Lock()
+
+
+def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: SafetyLimits,
+            latency: str | float, blocksize: int, max_voices: int, watchdog_s: float) -> "DeviceStream":
+    """The running stream of ``device`` with ``channel`` reserved (opened on first use).
+
+    The first actuator on a device sets the stream's latency, block size and voice count.
+    """
+    with _streams_lock:
+        stream = _streams.get(device.index)
+        if stream is not None and stream.error is not None:
+            stream.shutdown()
+            stream = None
+        if stream is None:
+            stream = DeviceStream(device, rate_hz, latency=latency, blocksize=blocksize,
+                                  max_voices=max_voices, watchdog_s=watchdog_s)
+            _streams[device.index] = stream
+        elif stream.rate_hz != rate_hz:
+            raise DeviceError(
+                f"sound output {device.name!r} already streams at {stream.rate_hz:g} Hz for another actuator; "
+                f"give both the same rate_hz"
+            )
+        try:
+            stream.reserve(channel, limits)
+        except DeviceError:
+            if not stream.users:
+                stream.shutdown()
+                _streams.pop(device.index, None)
+            raise
+        return stream
+
+
+def release(stream: "DeviceStream", channel: int, *, drain_timeout_s: float) -> None:
+    """Give ``channel`` back; the last actuator on a device closes its stream after draining it."""
+    with _streams_lock:
+        stream.users.discard(channel)
+        last = not stream.users
+        if last and _streams.get(stream.device.index) is stream:
+            del _streams[stream.device.index]
+    if last:
+        try:
+            if stream.error is None:
+                stream.drain(drain_timeout_s)
+        finally:
+            stream.shutdown()
+
+
+def _abort(stream, *, wait_s: float) -> bool:
+    """Abort and close ``stream`` without waiting more than ``wait_s``; True if it closed.
+
+    On a stalled sound server PortAudio's abort can block for good. Then the
+    stream is left to the OS, and sounddevice's exit handler (which would wait on
+    it in Pa_Terminate and hang the program's exit) is unregistered.
+    """
+    def run():
+        try:
+            stream.abort()
+            stream.close()
+        except Exception:  # the device may already be gone; there is nothing left to release
+            pass
+
+    closer = threading.Thread(target=run, name="hapticfx-soundcard-abort", daemon=True)
+    closer.start()
+    closer.join(timeout=wait_s)
+    if closer.is_alive():
+        import atexit
+
+        atexit.unregister(import_sounddevice()._exit_handler)
+        return False
+    return True
+
+
+class DeviceStream:
+    """A running output stream on one device, mixing impacts on its channels."""
+
+    def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, blocksize: int,
+                 max_voices: int, watchdog_s: float):
+        self.device = device
+        self.rate_hz = float(rate_hz)
+        self.latency = latency
+        self.blocksize = blocksize
+        self.watchdog_s = watchdog_s
+        self.mixer = Mixer(min(2, device.channels), self.rate_hz, max_voices=max_voices)
+        self.users: set[int] = set()
+        self.underflows = 0
+        self.error: str | None = None
+        self.error_at: float | None = None
+        self._last_callback = time.monotonic()
+        self._stream = None
+        self._stopping = False
+        self._watchdog: threading.Thread | None = None
+        self._stop_watchdog = threading.Event()
+
+    # --- lifetime -------------------------------------------------------------------
+
+    def reserve(self, channel: int, limits: SafetyLimits) -> None:
+        if channel in self.users:
+            raise DeviceError(f"channel {channel} of {self.device.name!r} is already used by another actuator")
+        if channel >= self.device.channels:
+            raise DeviceError(
+                f"sound output {self.device.name!r} has {self.device.channels} channel(s); "
+                f"channel {channel} does not exist (channels count from 0)"
+            )
+        self.mixer.widen(channel + 1)
+        self.mixer.set_limits(channel, limits)
+        self.users.add(channel)
+        if self._stream is None or self._stream.channels < self.mixer.channels:
+            self._restart()
+
+    def _restart(self) -> None:
+        sd = import_sounddevice()
+        if self._stream is not None:
+            self._close_stream(self._stream)
+        self._stopping = False
+        try:
+            stream = sd.OutputStream(
+                device=self.device.index, samplerate=self.rate_hz, channels=self.mixer.channels,
+                dtype="float32", latency=self.latency, blocksize=self.blocksize,
+                callback=self._callback, finished_callback=self._finished,
+            )
+            self._last_callback = time.monotonic()
+            stream.start()
+        except sd.PortAudioError as exc:
+            raise DeviceError(f"cannot open sound output {self.device.name!r}: {exc}") from None
+        self._stream = stream
+        if self._watchdog is None:
+            self._watchdog = threading.Thread(target=self._watch, name="hapticfx-soundcard-watchdog", daemon=True)
+            self._watchdog.start()
+
+    def _close_stream(self, stream) -> None:
+        self._stopping = True
+        _abort(stream, wait_s=1.0)
+
+    def shutdown(self) -> None:
+        """Stop the stream and the watchdog (does not wait for queued impacts)."""
+        self._stop_watchdog.set()
+        if self._stream is not None:
+            self._close_stream(self._stream)
+            self._stream = None
+
+    # --- real-time side -------------------------------------------------------------
+
+    def _callback(self, outdata: np.ndarray, frames: int, time_info, status) -> None:
+        self._last_callback = time.monotonic()
+        if status.output_underflow:
+            self.underflows += 1
+        self.mixer.render_into(outdata)
+
+    def _finished(self) -> None:
+        if not self._stopping:
+            self._fail("the sound stream stopped by itself (sound server gone or device removed)")
+
+    def _fail(self, why: str) -> None:
+        if self.error is None:
+            self.error = f"sound output {self.device.name!r} failed: {why}"
+            self.error_at = time.monotonic()
+
+    def _watch(self) -> None:
+        period = min(0.1, self.watchdog_s / 4)
+        while not self._stop_watchdog.wait(period):
+            if self._stopping or self.error is not None:
+                continue
+            silent = time.monotonic() - self._last_callback
+            if silent > self.watchdog_s:
+                self._fail(f"no audio callback for {silent:.2f} s (sound server stalled or gone)")
+                self._stop_watchdog.set()
+                if self._stream is not None:
+                    _abort(self._stream, wait_s=1.0)
+
+    # --- caller side ----------------------------------------------------------------
+
+    def check(self) -> None:
+        """Raise :class:`DeviceError` if the stream has failed."""
+        if self.error is not None:
+            raise DeviceError(self.error)
+
+    def play(self, channel: int, samples: np.ndarray) -> None:
+        self.check()
+        self.mixer.add(channel, samples)
+
+    def drain(self, timeout_s: float | None) -> None:
+        """Wait until every queued impact has left the device (its output latency included)."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while self.mixer.busy:
+            self.check()
+            if deadline is not None and time.monotonic() > deadline:
+                raise DeviceError(f"sound output {self.device.name!r} did not finish playing within {timeout_s:g} s")
+            time.sleep(0.005)
+        self.check()
+        stream = self._stream
+        if stream is not None:
+            time.sleep(float(stream.latency) + 2 * max(stream.blocksize, 256) / self.rate_hz)
+        self.check()
+
+    @property
+    def output_latency_s(self) -> float:
+        return float(self._stream.latency) if self._stream is not None else float("nan")

@@ -1,0 +1,43 @@
+"""Start and stop the PulseAudio null sink of .ci/soundserver.sh for the sound-card tests."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[3]
+SCRIPT = REPO / ".ci" / "soundserver.sh"
+
+
+def start_soundserver(runtime_dir: str | None = None) -> str:
+    """Run .ci/soundserver.sh (idempotent); returns the XDG_RUNTIME_DIR of that server."""
+    missing = [t for t in ("pulseaudio", "pactl", "pacat") if shutil.which(t) is None]
+    if missing:
+        pytest.skip(f"PulseAudio is not installed ({', '.join(missing)} missing): "
+                    "apt-get install -y libportaudio2 pulseaudio pulseaudio-utils libasound2-plugins")
+    env = dict(os.environ)
+    if runtime_dir:
+        env["HAPTICFX_XDG"] = runtime_dir
+    done = subprocess.run(["bash", str(SCRIPT)], env=env, capture_output=True, text=True, timeout=30)
+    if done.returncode != 0:
+        pytest.fail(f"{SCRIPT} failed ({done.returncode}): {done.stderr.strip()}")
+    return done.stdout.strip().splitlines()[-1]
+
+
+def stop_soundserver(runtime_dir: str) -> None:
+    """Stop the server (and its keep-alive) that start_soundserver started in ``runtime_dir``."""
+    import signal
+
+    for pid_file, program in (("pulse/pid", b"pulseaudio"), ("keepalive.pid", b"pacat")):
+        path = Path(runtime_dir) / pid_file
+        try:
+            pid = int(path.read_text().strip())
+            if program in Path(f"/proc/{pid}/cmdline").read_bytes():
+                os.kill(pid, signal.SIGCONT)
+                os.kill(pid, signal.SIGTERM)
+        except (OSError, ValueError):
+            pass  # already gone

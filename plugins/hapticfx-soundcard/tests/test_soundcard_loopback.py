@@ -1,0 +1,177 @@
+"""The actuators on a real PulseAudio null sink, recorded back from its monitor."""
+
+import time
+
+import numpy as np
+import pytest
+from hapticfx.errors import DeviceError
+from hapticfx.params import BuildContext
+from hapticfx.signal import Signal
+
+from hapticfx_soundcard.actuator import Haptuator, VibroTransducer
+from hapticfx_soundcard.bench import LoopbackRecorder
+
+pytestmark = pytest.mark.soundserver
+RATE = 48000
+
+
+def impact(n=2400, f=180.0, amp=0.4, decay=25.0):
+    t = np.arange(n) / RATE
+    return amp * np.exp(-decay * t) * np.sin(2 * np.pi * f * t) * (1 - np.exp(-t * 2000))
+
+
+def record_while(play, seconds):
+    """Record the monitor (both channels) around ``play()``, 0.1 s padding before and after."""
+    with LoopbackRecorder(RATE) as rec:
+        time.sleep(0.1)
+        play()
+        time.sleep(seconds + 0.2)
+    x = np.concatenate([b for _, b in rec.capture.blocks]).astype(np.float64)
+    return x
+
+
+def align(captured, reference):
+    """``captured`` cut at the lag that best matches ``reference`` (full cross-correlation)."""
+    from scipy.signal import correlate
+
+    c = correlate(captured, reference, mode="valid", method="fft")
+    lag = int(np.argmax(c))
+    return captured[lag:lag + reference.size], lag
+
+
+def corr(a, b):
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def test_played_signal_comes_back_unchanged(soundserver):
+    sig = impact()
+    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
+        assert act.spec.rate_hz == RATE
+        cap = record_while(lambda: act.play(Signal(sig, RATE)), sig.size / RATE)
+        assert act.limiter_report().total == 0
+    got, _ = align(cap[:, 0], sig)
+    assert corr(got, sig) > 0.999
+    level = np.sqrt(np.mean(got ** 2)) / np.sqrt(np.mean(sig ** 2))
+    assert level == pytest.approx(1.0, abs=0.01)  # within 0.09 dB
+    assert np.max(np.abs(cap[:, 1])) < 1e-3  # the other channel stays silent
+
+
+def test_overlapping_impacts_add_up_in_one_stream(soundserver):
+    a, b = impact(f=120.0, amp=0.3), impact(n=1800, f=330.0, amp=0.25)
+    with VibroTransducer(VibroTransducer.Params(), BuildContext()) as act:
+        def both():
+            act.play(Signal(a, RATE))
+            time.sleep(0.02)  # b starts while a still sounds
+            act.play(Signal(b, RATE))
+        cap = record_while(both, 0.1)[:, 0]
+    _, lag_a = align(cap, a)
+    # Each impact's onset, from a correlation against the residual:
+    rest = cap.copy()
+    rest[lag_a:lag_a + a.size] -= a
+    _, lag_b = align(rest, b)
+    assert 0 < lag_b - lag_a < a.size, "b must start while a is still sounding"
+    ref = np.zeros(cap.size)
+    ref[lag_a:lag_a + a.size] += a
+    ref[lag_b:lag_b + b.size] += b
+    span = slice(lag_a, max(lag_a + a.size, lag_b + b.size))
+    assert corr(cap[span], ref[span]) > 0.999
+    assert np.max(np.abs(cap[span] - ref[span])) < 0.01
+
+
+def test_two_actuators_share_a_device_one_channel_each(soundserver):
+    a, b = impact(f=150.0), impact(f=400.0, amp=0.2)
+    vib = VibroTransducer(VibroTransducer.Params(), BuildContext(device="default", channel=0))
+    hap = Haptuator(Haptuator.Params(), BuildContext(device="default", channel=1))
+    with vib, hap:
+        assert vib._stream is hap._stream  # one stream per device
+        cap = record_while(lambda: (vib.play(Signal(a, RATE)), hap.play(Signal(b, RATE))), a.size / RATE)
+    got_a, _ = align(cap[:, 0], a)
+    got_b, _ = align(cap[:, 1], b)
+    assert corr(got_a, a) > 0.999
+    assert corr(got_b, b) > 0.999
+
+
+def test_a_signal_at_another_rate_is_resampled(soundserver):
+    sig1k = impact(n=200, f=80.0)
+    with VibroTransducer(VibroTransducer.Params(), BuildContext()) as act:
+        cap = record_while(lambda: act.play(Signal(sig1k, 1000.0)), 0.25)[:, 0]
+    from hapticfx.shaping import resample
+
+    ref = resample(Signal(sig1k, 1000.0), RATE).samples
+    got, _ = align(cap, ref)
+    assert corr(got, ref) > 0.999
+
+
+def test_drain_waits_until_heard_and_close_drains(soundserver):
+    sig = impact(n=RATE // 2)  # 0.5 s
+    with VibroTransducer(VibroTransducer.Params(), BuildContext()) as act:
+        t = time.monotonic()
+        act.play(Signal(sig, RATE))
+        queued = time.monotonic() - t
+        act.drain(timeout=3.0)
+        waited = time.monotonic() - t
+    assert queued < 0.05  # play() does not block on the device
+    assert 0.5 <= waited < 1.5
+
+
+def test_device_by_name_and_index(soundserver):
+    from hapticfx_soundcard.devices import output_devices
+
+    pulse = next(d for d in output_devices() if d.name == "pulse")
+    for device in ("pulse", pulse.index, str(pulse.index)):
+        with VibroTransducer(VibroTransducer.Params(), BuildContext(device=device)) as act:
+            act.play(Signal(impact(n=480), RATE))
+            act.drain(timeout=2.0)
+
+
+def test_unknown_device_is_a_clear_error(soundserver):
+    act = VibroTransducer(VibroTransducer.Params(), BuildContext(device="no-such-card"))
+    with pytest.raises(DeviceError, match=r"no sound output device matches 'no-such-card'; outputs: .*pulse"):
+        act.open()
+    with pytest.raises(DeviceError, match="index 99"):
+        VibroTransducer(VibroTransducer.Params(), BuildContext(device=99)).open()
+    with pytest.raises(DeviceError, match="channel 40 does not exist"):
+        VibroTransducer(VibroTransducer.Params(), BuildContext(channel=40)).open()
+
+
+def test_a_refused_rate_falls_back_to_the_device_default(soundserver, capsys):
+    act = VibroTransducer(VibroTransducer.Params(rate_hz=400000), BuildContext())
+    assert act.spec.rate_hz == 400000  # known before the device is touched
+    with act:
+        assert act.spec.rate_hz != 400000
+        assert "does not take 400000 Hz" in act.note
+        act.play(Signal(impact(n=480), 48000.0))  # resampled to the stream rate
+        act.drain(timeout=2.0)
+    assert "does not take 400000 Hz" in capsys.readouterr().err
+
+
+def test_same_channel_twice_and_mismatched_rates_are_refused(soundserver):
+    with VibroTransducer(VibroTransducer.Params(), BuildContext(channel=0)):
+        with pytest.raises(DeviceError, match="already used"):
+            Haptuator(Haptuator.Params(), BuildContext(channel=0)).open()
+        with pytest.raises(DeviceError, match="already streams at 48000 Hz"):
+            Haptuator(Haptuator.Params(rate_hz=44100), BuildContext(channel=1)).open()
+
+
+def test_play_before_open_is_an_error(soundserver):
+    with pytest.raises(DeviceError, match="not open"):
+        Haptuator().play(Signal(np.zeros(10), RATE))
+
+
+@pytest.mark.parametrize("effect", ["falling_brick.yaml"])
+def test_an_effect_played_through_the_pipeline_is_heard_as_rendered(soundserver, effect):
+    from pathlib import Path
+
+    from hapticfx.pipeline import Pipeline
+
+    path = Path(__file__).resolve().parents[3] / "effects" / effect
+    pipeline = Pipeline.from_effect(path)
+    deliveries = []
+    with pipeline:
+        assert pipeline.actuator.name == "vibro-transducer"
+        cap = record_while(lambda: deliveries.append(pipeline.impact(velocity=3.8)), 0.5)[:, 0]
+    sent = deliveries[0].output.samples
+    assert deliveries[0].output.rate_hz == RATE
+    got, _ = align(cap, sent)
+    assert corr(got, sent) > 0.999
+    assert np.sqrt(np.mean(got ** 2)) / np.sqrt(np.mean(sent ** 2)) == pytest.approx(1.0, abs=0.01)

@@ -1,0 +1,63 @@
+"""Registration, specs and CLI of the sound-card plugin."""
+
+import subprocess
+import sys
+
+import pytest
+from hapticfx.params import BuildContext
+from hapticfx.registry import get_registry
+from typer.testing import CliRunner
+
+from hapticfx_soundcard.actuator import Haptuator, VibroTransducer
+
+
+def test_listing_plugins_does_not_import_sounddevice():
+    code = ("import sys; from hapticfx.registry import get_registry; r = get_registry(); "
+            "assert {'vibro-transducer', 'haptuator'} <= set(r.names('actuator')); "
+            "from hapticfx.cli import build_app; build_app(); "
+            "r.get('actuator', 'haptuator').resolve(); "
+            "print('sounddevice' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("cls, band, gain", [(VibroTransducer, (20.0, 15000.0), 0.8), (Haptuator, (30.0, 800.0), 0.6)])
+def test_specs_follow_the_paper_and_need_no_device(cls, band, gain):
+    act = get_registry().create("actuator", cls.name, params=cls.Params(rate_hz=44100),
+                                context=BuildContext(device="no-such-card", channel=3))
+    assert act.spec.band_hz == band and act.spec.volts_peak == 5.0 and act.spec.waveform
+    assert act.spec.rate_hz == 44100 and act.spec.default_gain == gain
+    assert act.channel == 3 and act.limits == act.spec.limits
+    assert "no-such-card" in act.describe()
+
+
+def test_params_come_from_an_effect_section():
+    from hapticfx.params import parse_params
+    from hapticfx.errors import EffectError
+
+    p = parse_params(Haptuator.Params, {"rate_hz": 96000, "latency": "high"}, source="e.yaml", key="actuator")
+    assert p.rate_hz == 96000 and p.latency == "high"
+    with pytest.raises(EffectError, match=r"e.yaml: actuator.latency: expected one of 'low', 'high'"):
+        parse_params(Haptuator.Params, {"latency": "fast"}, source="e.yaml", key="actuator")
+
+
+@pytest.mark.soundserver
+def test_devices_command_lists_the_null_sink(soundserver):
+    from hapticfx.cli import build_app
+
+    result = CliRunner().invoke(build_app(), ["devices"])
+    assert result.exit_code == 0, result.output
+    assert "pulse" in result.output and "default" in result.output
+
+
+@pytest.mark.soundserver
+def test_hapticfx_play_uses_the_default_sound_device(soundserver):
+    import os
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[3]
+    done = subprocess.run([sys.executable, "-m", "hapticfx", "play", "effects/falling_brick.yaml"], cwd=repo,
+                          env={**os.environ, "XDG_RUNTIME_DIR": soundserver}, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "-> vibro-transducer on default device, channel 0, 48000 Hz" in done.stdout

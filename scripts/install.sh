@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Install hapticfx and its first-party plugins on a fresh Debian/Ubuntu machine.
+#   scripts/install.sh          system libraries (apt, when run as root) + hapticfx + plugins
+#   scripts/install.sh --test   the same, plus what the tests need (virtual sound server, socat, oscsend)
+# Uses the active Python (a virtual environment if one is active).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PY=${PYTHON:-python3}
+
+apt_packages=(libportaudio2)   # sounddevice needs PortAudio
+if [ "${1:-}" = "--test" ]; then
+  # PulseAudio null sink for the sound-card tests, socat for serial pairs, liblo-tools for oscsend.
+  # gcc-avr, avr-libc, arduino-core-avr: the solenoid sketch is compiled for the Uno in a test.
+  apt_packages+=(pulseaudio pulseaudio-utils libasound2-plugins socat liblo-tools gcc-avr avr-libc arduino-core-avr)
+fi
+if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null; then
+  missing=()
+  for p in "${apt_packages[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+  if [ ${#missing[@]} -gt 0 ]; then
+    echo "install: apt-get install ${missing[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  fi
+else
+  echo "install: not root; make sure these system packages are installed: ${apt_packages[*]}"
+fi
+
+# torch first, pinned to the CPU build, so that the neural plugin's `torch>=2.3` is already met
+# (an unpinned resolve downloads several GB of CUDA packages).
+"$PY" -m pip install -q --disable-pip-version-check "torch==2.13.0"
+extra=""
+[ "${1:-}" = "--test" ] && extra="[test,earthquake,docs]"
+"$PY" -m pip install -q --disable-pip-version-check -e ".${extra}" \
+  -e plugins/hapticfx-neural -e plugins/hapticfx-soundcard -e plugins/hapticfx-solenoid
+echo "install: done ($("$PY" -m hapticfx plugins | tail -n +2 | awk '{print $4}' | sort -u | tr '\n' ' '))"

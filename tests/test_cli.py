@@ -1,0 +1,136 @@
+"""The command line end to end, in subprocesses, as a user runs it."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.io import wavfile
+
+from hfx_testdata import fake_distribution
+
+REPO = Path(__file__).resolve().parents[1]
+KE = "name: brick-ke\nobject: concrete-brick\nvelocity_mps: 3.8\nmodel: {type: kinetic-energy}\nactuator: {type: %s}\n"
+
+
+def hfx(*args, cwd=None, env=None):
+    return subprocess.run([sys.executable, "-m", "hapticfx", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, env={**os.environ, **(env or {})})
+
+
+def test_play_to_wav_writes_non_silent_file_at_actuator_rate(tmp_path, write_effect):
+    effect = write_effect(KE % "memory")
+    out = tmp_path / "brick.wav"
+    r = hfx("play", effect, "--device", f"wav:{out}")
+    assert r.returncode == 0, r.stderr
+    rate, data = wavfile.read(out)
+    assert rate == 48000 and data.dtype == np.float32
+    assert np.max(np.abs(data)) > 0.05
+    assert f"WAV file {out}" in r.stdout
+
+
+@pytest.mark.parametrize("suffix", [".wav", ".csv", ".png"])
+def test_render_formats(tmp_path, write_effect, suffix):
+    out = tmp_path / f"r{suffix}"
+    r = hfx("render", write_effect(KE % "memory"), "--out", out, "--velocity", "2.5")
+    assert r.returncode == 0, r.stderr
+    assert out.stat().st_size > 100
+    if suffix == ".csv":
+        header, first = out.read_text().splitlines()[:2]
+        assert header == "t_s,profile_fraction" and first == "0,0"
+    if suffix == ".png":
+        assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_render_unknown_suffix(tmp_path, write_effect):
+    r = hfx("render", write_effect(KE % "memory"), "--out", tmp_path / "x.mp3")
+    assert r.returncode == 2
+    assert "unknown output type '.mp3'; use .wav, .csv or .png" in r.stderr
+    assert not (tmp_path / "x.mp3").exists()
+
+
+def test_nan_velocity_on_the_command_line(write_effect):
+    r = hfx("play", write_effect(KE % "memory"), "--velocity", "nan", "--device", "memory")
+    assert r.returncode == 2 and r.stderr.strip() == "hapticfx: error: velocity must be finite, got nan"
+
+
+def test_wav_into_missing_directory_leaves_nothing(tmp_path, write_effect):
+    r = hfx("play", write_effect(KE % "memory"), "--device", f"wav:{tmp_path}/no/such/dir/x.wav")
+    assert r.returncode == 2 and "does not exist" in r.stderr
+    assert list(tmp_path.iterdir()) == [tmp_path / "effect.yaml"]
+
+
+@pytest.fixture
+def deviceless_plugin(tmp_path):
+    """An installed (entry-point) actuator plugin whose device is absent: open() raises DeviceError.
+
+    A stand-in for a sound card on a machine without one; the real sound-card plugin's own
+    behaviour with no device is tested in plugins/hapticfx-soundcard.
+    """
+    site = tmp_path / "site"
+    site.mkdir()
+    fake_distribution(site, dist="hfx-absent", version="0.1", entry_point="absent", module="hfx_absent", source='''
+        from hapticfx.hookspecs import hookimpl
+        from hapticfx.actuators.virtual import MemoryActuator
+        from hapticfx.errors import DeviceError
+
+        class Absent(MemoryActuator):
+            """An actuator whose device is never there."""
+            name = "absent"
+            def open(self):
+                raise DeviceError("no audio output device found")
+
+        @hookimpl
+        def register_actuators(register):
+            register("absent", Absent)
+    ''')
+    return {"PYTHONPATH": f"{site}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "HAPTICFX_PLUGINS": "absent"}
+
+
+def test_play_without_device_writes_wav_and_png(tmp_path, write_effect, deviceless_plugin):
+    effect = write_effect(KE % "absent")
+    r = hfx("play", effect, cwd=tmp_path, env=deviceless_plugin)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith("no output device (no audio output device found); wrote the impact to "
+                               "hapticfx-brick-ke-3.80mps.wav and hapticfx-brick-ke-3.80mps.png instead")
+    assert "--device wav:PATH" in lines[0]
+    rate, data = wavfile.read(tmp_path / "hapticfx-brick-ke-3.80mps.wav")
+    assert rate == 48000 and np.max(np.abs(data)) > 0.05
+    assert (tmp_path / "hapticfx-brick-ke-3.80mps.png").stat().st_size > 1000
+
+
+def test_play_with_explicit_absent_device_is_an_error(write_effect, deviceless_plugin):
+    r = hfx("play", write_effect(KE % "absent"), "--device", "3", env=deviceless_plugin)
+    assert r.returncode == 2 and r.stderr.strip() == "hapticfx: error: no audio output device found"
+
+
+def test_plugins_lists_builtins():
+    r = hfx("plugins")
+    assert r.returncode == 0
+    rows = [line.split() for line in r.stdout.splitlines()]
+    assert rows[0] == ["kind", "name", "plugin", "distribution", "version"]
+    assert ["model", "kinetic-energy", "hapticfx.builtins.core", "hapticfx"] == rows[[r[1] for r in rows].index("kinetic-energy")][:4]
+
+
+def test_info_says_what_it_loads(write_effect):
+    r = hfx("info", write_effect(KE % "memory"))
+    assert r.returncode == 0, r.stderr
+    info = json.loads(r.stdout)
+    assert info["model"]["model"] == "kinetic-energy" and info["actuator"]["rate_hz"] == 48000.0
+
+
+def test_help_explains_devices():
+    r = hfx("play", "--help")
+    assert r.returncode == 0 and "wav:PATH" in r.stdout and "headless" in r.stdout
+
+
+def test_usage_error_is_clean_exit_2():
+    r = hfx("play", "--bogus")
+    assert r.returncode == 2 and "No such option: --bogus" in r.stderr and "Traceback" not in r.stderr

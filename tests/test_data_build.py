@@ -1,0 +1,161 @@
+"""build_dataset: preprocessing, representatives (medoid + overrides), atomic writes, lazy reads."""
+
+import json
+
+import numpy as np
+import pytest
+
+from hapticfx.data.build import ObjectRecordings, build_dataset, set_representative
+from hapticfx.data.dataset import open_dataset
+from hapticfx.data.preprocess import preprocess
+from hapticfx.data.reducers import dft321, max_min
+from hapticfx.data.representative import choose, medoid
+from hapticfx.data.toy import toy_recordings
+from hapticfx.errors import DatasetError, PluginError
+from hapticfx.objects import PAPER_OBJECTS
+
+V = [2.42, 3.13, 3.96]
+META = dict(name="t", rate_hz=1000.0, sensor={"model": "synthetic"}, provenance={"source": "test"})
+
+
+def _recs(**kw):
+    return [toy_recordings(PAPER_OBJECTS[o], V, drops=4, seed=i, **kw)
+            for i, o in enumerate(("wood-beam", "steel-plate"))]
+
+
+def test_medoid_of_scaled_copies_is_the_middle_one():
+    base = np.random.default_rng(0).normal(size=(500, 3))
+    drops = np.stack([a * base for a in (1.2, 0.8, 1.0, 1.1, 0.9)])
+    assert medoid(drops) == 2
+    chosen, auto = choose(drops[None], [3.0], {3.0: 4})
+    assert auto.tolist() == [2] and chosen.tolist() == [4]
+
+
+def test_override_errors_name_object_and_velocity():
+    w = np.zeros((2, 3, 10, 3))
+    with pytest.raises(DatasetError, match=r"wood: representative override for 9.9 m/s, which is not recorded"):
+        choose(w, [1.0, 2.0], {9.9: 0}, label="wood")
+    with pytest.raises(DatasetError, match=r"must be a drop index 0..2, got 3"):
+        choose(w, [1.0, 2.0], {2.0: 3}, label="wood")
+
+
+def test_build_writes_raw_banks_and_metadata(tmp_path):
+    recs = _recs()
+    recs[0].representative_overrides = {3.13: 3}
+    messages = []
+    out = build_dataset(tmp_path / "ds", recs, progress=messages.append, **META)
+    ds = open_dataset(out)
+    assert sorted(ds.objects) == ["steel-plate", "wood-beam"] and ds.reducers() == ["dft321", "max-min"]
+    assert ds.rate_hz == 1000.0 and ds.n_samples == 500 and ds.raw_rate_hz == 1000.0
+    assert ds.meta["sensor"] == {"model": "synthetic"} and ds.meta["preprocessing"]["cutoff_hz"] == 20.0
+    rep = ds.representatives("wood-beam")
+    assert rep["overrides"] == [{"velocity_mps": 3.13, "drop": 3}] and rep["chosen"][1] == 3
+    v, windows = ds.windows("wood-beam")
+    for i in range(len(V)):
+        assert rep["automatic"][i] == medoid(windows[i])
+    picked = windows[np.arange(3), rep["chosen"]]
+    np.testing.assert_allclose(ds.bank("wood-beam", "max-min").profiles, max_min(picked), atol=1e-5)
+    np.testing.assert_allclose(ds.bank("wood-beam", "dft321").profiles, dft321(picked), atol=1e-5)
+    with np.load(out / "banks" / "max-min" / "wood-beam.npz", allow_pickle=False) as z:
+        assert z["representative"].tolist() == rep["chosen"]
+    assert any("wood-beam" in m for m in messages)
+
+
+def test_other_raw_rates_are_resampled(tmp_path):
+    recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], V, drops=3, rate_hz=2000.0)]
+    ds = open_dataset(build_dataset(tmp_path / "ds", recs, **{**META, "rate_hz": 2000.0}))
+    assert ds.raw_rate_hz == 2000.0 and ds.raw("wood-beam")[1].shape == (3, 3, 2000, 3)
+    assert ds.bank("wood-beam", "max-min").profiles.shape == (3, 500)
+
+
+def test_unsorted_velocities_are_sorted_with_their_drops():
+    rec = toy_recordings(PAPER_OBJECTS["wood-beam"], V, drops=2)
+    flipped = ObjectRecordings(rec.info, rec.velocities_mps[::-1], rec.accel_g[::-1])
+    assert flipped.velocities_mps.tolist() == V
+    np.testing.assert_array_equal(flipped.accel_g, rec.accel_g)
+
+
+@pytest.mark.parametrize("velocities, shape, match", [
+    ([2.0, 2.0], (2, 1, 100, 3), "recorded twice"),
+    ([2.0, 3.0], (2, 1, 100, 2), r"shape \(2, drops, samples, 3\)"),
+    ([0.0, 3.0], (2, 1, 100, 3), "must be > 0"),
+    ([np.nan, 3.0], (2, 1, 100, 3), "non-finite"),
+])
+def test_bad_recordings_are_rejected(velocities, shape, match):
+    with pytest.raises(DatasetError, match=match):
+        ObjectRecordings(PAPER_OBJECTS["wood-beam"], np.array(velocities), np.zeros(shape))
+
+
+def test_failure_leaves_nothing_behind(tmp_path):
+    def recordings():
+        yield _recs()[0]
+        raise DatasetError("recorder failed")
+
+    with pytest.raises(DatasetError, match="recorder failed"):
+        build_dataset(tmp_path / "ds", recordings(), **META)
+    with pytest.raises(PluginError, match="unknown reducer 'nope'"):
+        build_dataset(tmp_path / "ds", _recs(), reducers=("nope",), **META)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_overwrite_is_explicit_and_atomic(tmp_path):
+    build_dataset(tmp_path / "ds", _recs(), **META)
+    with pytest.raises(DatasetError, match="already exists"):
+        build_dataset(tmp_path / "ds", _recs(), **META)
+    build_dataset(tmp_path / "ds", _recs()[:1], overwrite=True, **META)
+    assert open_dataset(tmp_path / "ds").objects == ["wood-beam"]
+    assert [p.name for p in tmp_path.iterdir()] == ["ds"]
+
+
+def test_reading_one_object_reads_only_its_files(tmp_path):
+    out = build_dataset(tmp_path / "ds", _recs(), **META)
+    for f in out.rglob("steel-plate.npz"):
+        f.unlink()
+    ds = open_dataset(out)
+    assert ds.bank("wood-beam", "max-min").profiles.shape == (3, 500)
+    assert ds.raw("wood-beam")[1].shape[0] == 3
+    with pytest.raises(DatasetError, match="file not found"):
+        ds.raw("steel-plate")
+
+
+def test_set_representative_stores_override_and_rebuilds(tmp_path):
+    out = build_dataset(tmp_path / "ds", _recs(), **META)
+    ds = open_dataset(out)
+    auto = ds.representatives("steel-plate")["automatic"][2]
+    other = (auto + 1) % 4
+    set_representative(out, "steel-plate", 3.96, other)
+    ds2 = open_dataset(out)
+    assert ds2.representatives("steel-plate")["chosen"][2] == other
+    _, w = ds2.windows("steel-plate")
+    np.testing.assert_allclose(ds2.bank("steel-plate", "max-min").profiles[2], max_min(w[2, other]), atol=1e-5)
+    assert ds2.meta["provenance"] == {"source": "test"}
+    set_representative(out, "steel-plate", 3.96, None)
+    assert open_dataset(out).representatives("steel-plate")["overrides"] == []
+    with pytest.raises(DatasetError, match="no drops at 9"):
+        set_representative(out, "steel-plate", 9.0, 1)
+
+
+def test_metadata_is_json_without_pickle(tmp_path):
+    out = build_dataset(tmp_path / "ds", _recs(), **META)
+    meta = json.loads((out / "dataset.json").read_text())
+    assert meta["representative_method"].startswith("medoid")
+    for f in out.rglob("*.npz"):
+        with np.load(f, allow_pickle=False) as z:
+            assert all(z[k].dtype != object for k in z.files)
+
+
+def test_windows_match_preprocess_of_raw(tmp_path):
+    out = build_dataset(tmp_path / "ds", _recs(), **META)
+    ds = open_dataset(out)
+    v, raw = ds.raw("wood-beam")
+    np.testing.assert_allclose(ds.windows("wood-beam")[1], preprocess(raw, 1000.0))
+
+
+def test_dataset_directory_is_not_private(tmp_path):
+    import os
+    import stat
+
+    out = build_dataset(tmp_path / "ds", _recs(), **META)
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o777 & ~umask

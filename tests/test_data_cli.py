@@ -1,0 +1,106 @@
+"""The data commands and `bench reducers` through the real CLI entry point."""
+
+import numpy as np
+import pytest
+
+from hapticfx.cli import main
+from hapticfx.data.build import build_dataset
+from hapticfx.data.dataset import open_dataset
+from hapticfx.data.toy import toy_recordings
+from hapticfx.objects import PAPER_OBJECTS
+
+
+def run(capsys, *argv):
+    with pytest.raises(SystemExit) as exit_:
+        main(list(map(str, argv)))
+    out = capsys.readouterr()
+    return exit_.value.code, out.out, out.err
+
+
+@pytest.fixture
+def dataset(tmp_path):
+    recs = [toy_recordings(PAPER_OBJECTS[o], [2.42, 3.13, 3.96], drops=4, seed=i)
+            for i, o in enumerate(("wood-beam", "steel-plate"))]
+    return build_dataset(tmp_path / "ds", recs, name="cli", rate_hz=1000.0, sensor={"model": "synthetic"},
+                         provenance={"source": "test"})
+
+
+def test_record_import_info_plot_pick_end_to_end(tmp_path, capsys):
+    pytest.importorskip("serial")
+    from hapticfx.data.accel_emulator import AccelBoardEmulator
+
+    t = np.arange(300) / 1000.0
+    imp = [np.stack([a * np.exp(-t / 0.03) * np.sin(2 * np.pi * 120 * t), 0.4 * a * np.exp(-t / 0.03) * np.sin(2 * np.pi * 200 * t),
+                     np.zeros_like(t)], axis=1) for a in (2.0, 2.4, 1.8, 2.2)]
+    rec = tmp_path / "rec"
+    for height, impacts in ((0.3, imp[:2]), (0.6, imp[2:])):
+        with AccelBoardEmulator(impacts) as emu:
+            code, out, err = run(capsys, "data", "record", "--port", emu.port, "--object", "wood-beam",
+                                 "--height-m", height, "--drops", 2, "--out-dir", rec, "--samples", 800)
+        assert code == 0, err
+        assert "v = " in err and len(out.split()) == 2
+    ds_path = tmp_path / "ds"
+    code, out, err = run(capsys, "data", "import", *sorted(rec.glob("*.csv")), "--out", ds_path,
+                         "--sensor", "model=ADXL335", "--sensor", "board=GY-61")
+    assert code == 0, err
+    ds = open_dataset(ds_path)
+    assert ds.meta["sensor"] == {"model": "ADXL335", "board": "GY-61"}
+    assert ds.bank("wood-beam", "max-min").velocities.tolist() == pytest.approx([np.sqrt(2 * 9.80665 * h) for h in (0.3, 0.6)])
+
+    code, out, _ = run(capsys, "data", "info", ds_path)
+    assert code == 0 and "wood-beam" in out and "(medoid)" in out
+
+    code, out, err = run(capsys, "data", "pick", "wood-beam", ds.bank("wood-beam", "max-min").velocities[1], 1,
+                         "--dataset", ds_path)
+    assert code == 0, err
+    code, out, _ = run(capsys, "data", "info", ds_path)
+    assert "drop 1 (manual)" in out
+
+    png = tmp_path / "fig.png"
+    code, out, err = run(capsys, "data", "plot", "wood-beam", "--dataset", ds_path, "--out", png)
+    assert code == 0, err
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bench_reducers_prints_table4_and_timings(dataset, capsys):
+    code, out, err = run(capsys, "bench", "reducers", "--dataset", dataset, "--repeat", 3, "--number", 5,
+                         "--samples", 20000)
+    assert code == 0, err
+    table = out.split("\n\n")[0]
+    rows = [r for r in table.splitlines() if r.startswith("| wood-beam") or r.startswith("| steel-plate")]
+    assert len(rows) == 2
+    cells = rows[0].strip("|").split("|")
+    assert float(cells[2]) == pytest.approx(1.0, abs=1e-3)  # DFT321 spectral vs RSS: 1 by construction
+    assert 0 < float(cells[4]) < 1
+    assert "max-min / DFT321" in out and "20000 samples" in out
+
+
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("object,velocity_mps,drop,t_s,ax_g,ay_g\n")
+    code, out, err = run(capsys, "data", "import", bad, "--out", tmp_path / "ds")
+    assert code == 2 and err.count("\n") == 1 and "bad.csv: line 1: header must be exactly" in err
+    code, _, err = run(capsys, "data", "info", tmp_path / "missing")
+    assert code == 2 and "not a hapticfx dataset" in err
+    code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", tmp_path / "missing")
+    assert code == 2
+    code, _, err = run(capsys, "data", "record", "--port", "/dev/nope", "--object", "x", "--height-m", 1)
+    assert code == 2 and "cannot open serial port" in err
+
+
+def test_builtin_dataset_banks_agree_with_its_raw_drops(capsys):
+    from hapticfx.data.dataset import BUILTIN_DIR
+    from hapticfx.data.reducers import dft321, max_min
+
+    if not (BUILTIN_DIR / "helmet-drops" / "dataset.json").is_file():
+        pytest.skip("builtin:helmet-drops is not generated in this checkout")
+    ds = open_dataset("builtin:helmet-drops")
+    obj = ds.objects[0]
+    v, w = ds.windows(obj)
+    chosen = ds.representatives(obj)["chosen"]
+    picked = w[np.arange(len(v)), chosen]
+    np.testing.assert_allclose(ds.bank(obj, "max-min").profiles, max_min(picked), atol=1e-6)
+    np.testing.assert_allclose(ds.bank(obj, "dft321").profiles, dft321(picked), atol=1e-6)
+    code, out, err = run(capsys, "bench", "reducers", "--repeat", 2, "--number", 2, "--samples", 5000)
+    assert code == 0, err
+    assert "helmet-drops" in out.splitlines()[0]

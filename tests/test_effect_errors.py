@@ -1,0 +1,137 @@
+"""Malformed effect files: each gives one exact message naming the file and key path."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from hapticfx.effect import check_effect, load_effect
+from hapticfx.errors import EffectError
+
+GOOD = """\
+name: brick
+object: concrete-brick
+velocity_mps: 3.8
+model:
+  type: kinetic-energy
+  pulse_ms: 30
+actuator:
+  type: memory
+  gain: 0.8
+"""
+
+CASES = [
+    ("unknown top-level key",
+     GOOD + "colour: red\n",
+     "{f}: (top level): unknown key 'colour'; allowed: name, description, object, velocity_mps, model, actuator"),
+    ("unknown model key (misspelt)",
+     GOOD.replace("pulse_ms: 30", "pulse_msec: 30"),
+     "{f}: model: unknown key 'pulse_msec'; allowed: ke_max_j, pulse_ms, duration_ms, rate_hz, mass_kg"),
+    ("wrong type",
+     GOOD.replace("velocity_mps: 3.8", "velocity_mps: fast"),
+     "{f}: velocity_mps: expected a number, got str 'fast'"),
+    ("NaN velocity",
+     GOOD.replace("velocity_mps: 3.8", "velocity_mps: .nan"),
+     "{f}: velocity_mps: expected a finite number, got nan"),
+    ("infinite velocity",
+     GOOD.replace("velocity_mps: 3.8", "velocity_mps: .inf"),
+     "{f}: velocity_mps: expected a finite number, got inf"),
+    ("negative velocity",
+     GOOD.replace("velocity_mps: 3.8", "velocity_mps: -1"),
+     "{f}: velocity_mps: must be >= 0.0, got -1"),
+    ("negative mass",
+     GOOD.replace("object: concrete-brick", "object: {id: rock, mass_kg: -0.2}"),
+     "{f}: object.mass_kg: must be >= 1e-06, got -0.2"),
+    ("unknown model plugin",
+     GOOD.replace("type: kinetic-energy", "type: quantum"),
+     "{f}: model.type: unknown model 'quantum'; installed: "),
+    ("unknown actuator plugin",
+     GOOD.replace("type: memory", "type: rumble-pak"),
+     "{f}: actuator.type: unknown actuator 'rumble-pak'; installed: "),
+    ("python object tag",
+     GOOD.replace("velocity_mps: 3.8", "velocity_mps: !!python/object/apply:os.system ['true']"),
+     "{f}: line 3: tag 'tag:yaml.org,2002:python/object/apply:os.system' is not allowed "
+     "(effect files hold plain mappings, lists, strings and numbers)"),
+    ("duplicate key",
+     GOOD + "velocity_mps: 4.0\n",
+     "{f}: line 10: duplicate key 'velocity_mps' (first at line 3)"),
+    ("missing model",
+     "name: x\nobject: concrete-brick\nactuator: {type: memory}\n",
+     "{f}: (top level): required key 'model' is missing"),
+    ("model not a mapping",
+     GOOD.replace("model:\n  type: kinetic-energy\n  pulse_ms: 30", "model: kinetic-energy"),
+     "{f}: model: expected a mapping, got str 'kinetic-energy'"),
+    ("gain above 1",
+     GOOD.replace("gain: 0.8", "gain: 1.5"),
+     "{f}: actuator.gain: must be <= 1.0, got 1.5"),
+    ("limit raised above the hard limit",
+     GOOD + "  limits: {rms: 0.9}\n",
+     "{f}: actuator.limits: rms 0.9 would raise the actuator's hard limit 0.7; an effect can only lower limits"),
+    ("bad YAML",
+     "name: [unclosed\n",
+     "{f}: invalid YAML: line 2, column 1: expected ',' or ']', but got '<stream end>'"),
+    ("empty file", "", "{f}: the file is empty; an effect needs name, object, model and actuator"),
+    ("wrong type in plugin params",
+     GOOD.replace("pulse_ms: 30", "pulse_ms: [30]"),
+     "{f}: model.pulse_ms: expected a number, got list [30]"),
+    ("no mass for the kinetic-energy model",
+     GOOD.replace("object: concrete-brick", "object: mystery-box"),
+     "{f}: model: the kinetic-energy model needs a mass: describe the object with mass_kg, or set model.mass_kg"),
+]
+
+
+def _build(path):
+    from hapticfx.pipeline import Pipeline
+
+    Pipeline.from_effect(path, device="memory")
+
+
+@pytest.mark.parametrize("label, text, message", CASES, ids=[c[0] for c in CASES])
+def test_malformed_effect_message(write_effect, label, text, message):
+    path = write_effect(text)
+    with pytest.raises(EffectError) as err:
+        _build(path)
+    expected = message.format(f=path)
+    if expected.endswith("installed: "):
+        assert str(err.value).startswith(expected)
+    else:
+        assert str(err.value) == expected
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(EffectError) as err:
+        load_effect(tmp_path / "nope.yaml")
+    assert str(err.value) == f"{tmp_path / 'nope.yaml'}: file not found"
+
+
+def test_good_effect_passes(write_effect):
+    plan = check_effect(load_effect(write_effect(GOOD)))
+    assert plan.model_params.pulse_ms == 30.0
+
+
+def test_cli_user_error_is_one_line_exit_2(write_effect):
+    path = write_effect(GOOD.replace("type: kinetic-energy", "type: quantum"))
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "play", str(path), "--device", "memory"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert r.stderr.startswith(f"hapticfx: error: {path}: model.type: unknown model 'quantum'")
+
+
+def test_cli_debug_shows_traceback(write_effect):
+    path = write_effect(GOOD.replace("type: kinetic-energy", "type: quantum"))
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "--debug", "play", str(path), "--device", "memory"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" in r.stderr
+
+
+def test_validate_reports_each_file(write_effect):
+    good = write_effect(GOOD, "good.yaml")
+    bad = write_effect(GOOD.replace("gain: 0.8", "gain: 2"), "bad.yaml")
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "validate", str(good), str(bad)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert f"ok: {good}" in r.stdout
+    assert r.stderr.strip() == f"hapticfx: error: {bad}: actuator.gain: must be <= 1.0, got 2"

@@ -1,0 +1,238 @@
+"""`hapticfx.Engine`: off-thread rendering, bounded queue, errors per event, shutdown.
+
+A test plugin (registered through the real plugin manager) adds a model whose
+render can be held on a gate or made to fail, so the tests can reach the
+states they describe without timing anything.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from hapticfx.engine import Engine
+from hapticfx.errors import EffectError, HapticfxError, SignalError
+from hapticfx.hookspecs import hookimpl
+from hapticfx.interfaces import Impact, Model
+from hapticfx.params import BuildContext
+from hapticfx.registry import Registry, create_plugin_manager
+from hapticfx.signal import Signal
+
+GATE = threading.Event()
+RENDER_THREADS: list[int] = []
+
+
+class GatedModel(Model):
+    """Renders a short burst; waits for GATE when ``gated``; fails at chosen velocities."""
+
+    name = "test-gated"
+    units = "fraction"
+
+    @dataclass(frozen=True)
+    class Params:
+        gated: bool = False
+        fail_at: float = field(default=-1.0)
+
+    def __init__(self, params, context: BuildContext):
+        self.params = params
+
+    def render(self, impact: Impact) -> Signal:
+        RENDER_THREADS.append(threading.get_ident())
+        if self.params.gated and not GATE.wait(10):
+            raise RuntimeError("gate never opened")
+        if impact.velocity == self.params.fail_at:
+            raise ValueError("a bug inside a model")
+        if impact.velocity == self.params.fail_at + 1:
+            raise SignalError("a user-facing model error")
+        return Signal(np.sin(np.linspace(0, 20, 200)) * min(impact.velocity / 5, 1.0), 1000.0)
+
+
+class TestPlugin:
+    @hookimpl
+    def register_models(self, register):
+        register("test-gated", GatedModel)
+
+
+@pytest.fixture
+def registry():
+    pm, infos = create_plugin_manager(entry_points=False)
+    pm.register(TestPlugin(), name="test-plugin")
+    GATE.clear()
+    RENDER_THREADS.clear()
+    yield Registry(pm, infos)
+    GATE.set()
+
+
+def scene(tmp_path, *, model="{type: test-gated}", queue=16, limits="", extra=""):
+    path = tmp_path / "scene.yaml"
+    def inline(n, o):
+        return f"{{name: {n}, object: {o}, model: {model}, actuator: {{type: memory}}}}"
+
+    path.write_text(f"""
+name: t
+actuators:
+  helmet: {{type: memory, rate_hz: 2000{limits}}}
+effects:
+  brick: {{actuator: helmet, channel: 0, inline: {inline('brick', 'concrete-brick')}}}
+  plate: {{actuator: helmet, channel: 0, inline: {inline('plate', 'steel-plate')}}}
+  frame: {{inline: {inline('frame', 'plastic-frame')}}}
+engine: {{queue_size: {queue}, close_timeout_s: 5}}
+{extra}""")
+    return path
+
+
+def test_impact_returns_while_the_worker_renders_on_another_thread(tmp_path, registry):
+    engine = Engine(scene(tmp_path, model="{type: test-gated, gated: true}"), registry=registry)
+    assert engine.impact("brick", 3.0, at=12.5) is True  # the render is held: a synchronous call would block here
+    assert engine.stats()["rendered"] == 0
+    GATE.set()
+    stats = engine.close()
+    assert stats["rendered"] == 1 and stats["pending"] == 0
+    assert RENDER_THREADS and threading.get_ident() not in RENDER_THREADS
+    played = engine.played()[0]
+    assert played.at == 12.5 and played.object == "brick" and played.output.rate_hz == 2000
+    assert played.delivery.impact.object == "concrete-brick"  # the effect's object, not the scene key
+
+
+def test_full_queue_drops_without_blocking_and_counts(tmp_path, registry):
+    engine = Engine(scene(tmp_path, model="{type: test-gated, gated: true}", queue=3), registry=registry)
+    results = [engine.impact("brick", 3.0) for _ in range(20)]
+    # one impact is in the worker (held by the gate) or still queued; at most 4 accepted
+    assert results[:3] == [True, True, True] and results.count(True) <= 4
+    GATE.set()
+    stats = engine.close()
+    assert stats["submitted"] == 20
+    assert stats["queued"] == results.count(True) and stats["dropped_queue_full"] == results.count(False)
+    assert stats["rendered"] == stats["queued"]
+
+
+def test_an_error_in_one_event_never_stops_the_engine(tmp_path, registry):
+    engine = Engine(scene(tmp_path, model="{type: test-gated, fail_at: 4.0}"), registry=registry)
+    for v in (3.0, 4.0, 3.5, 5.0, 3.2, 4.0):
+        assert engine.impact("brick", v)
+    stats = engine.close()
+    assert stats["rendered"] == 3 and stats["failed"] == 3
+    assert stats["errors"] == {"ValueError": 2, "SignalError": 1}
+    assert [p.delivery.impact.velocity for p in engine.played()] == [3.0, 3.5, 3.2]
+
+
+def test_bad_calls_raise_at_once(tmp_path, registry):
+    engine = Engine(scene(tmp_path), registry=registry)
+    with pytest.raises(EffectError, match="unknown object 'anvil'"):
+        engine.impact("anvil", 3.0)
+    for v in (-1.0, float("nan"), "fast"):
+        with pytest.raises(SignalError):
+            engine.impact("brick", v)
+    with pytest.raises(SignalError):
+        engine.impact("brick", 3.0, at=float("inf"))
+    with pytest.raises(EffectError, match="plays on channel 0, not 3"):
+        engine.impact("brick", 3.0, channel=3)
+    assert engine.impact("brick", 3.0, channel=0)
+    engine.close()
+    with pytest.raises(HapticfxError, match="closed"):
+        engine.impact("brick", 3.0)
+    assert engine.close()["rendered"] == 1  # closing twice is harmless
+
+
+def test_many_threads_share_one_engine(tmp_path, registry):
+    engine = Engine(scene(tmp_path, queue=100_000), registry=registry)
+    results = []
+
+    def hammer(k):
+        results.extend(engine.impact(("brick", "plate", "frame")[(k + i) % 3], 2.0 + (i % 30) / 10) for i in range(300))
+
+    threads = [threading.Thread(target=hammer, args=(k,)) for k in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    stats = engine.close()
+    assert stats["submitted"] == 2400 == stats["queued"] == stats["rendered"] and all(results)
+    shared = engine._outputs["actuators.helmet#0"].actuator
+    own = engine._outputs["frame"].actuator
+    assert len(shared.played) == 1600 and len(own.played) == 800
+
+
+def test_shared_actuator_runs_its_own_limiter_over_all_its_effects(tmp_path, registry):
+    engine = Engine(scene(tmp_path, queue=100, limits=", limits: {peak: 0.3, rms: 0.2}"), registry=registry)
+    out = engine._outputs["actuators.helmet#0"]
+    assert out.limiter is not None and engine._outputs["frame"].limiter is None
+    for i in range(40):
+        engine.impact("brick" if i % 2 else "plate", 5.0)
+    engine.close()
+    played = out.actuator.played
+    assert len(played) == 40
+    assert max(s.peak for s in played) <= 0.3 + 1e-12
+
+
+def test_close_without_drain_cancels_what_is_queued(tmp_path, registry):
+    engine = Engine(scene(tmp_path, model="{type: test-gated, gated: true}"), registry=registry)
+    for _ in range(6):
+        assert engine.impact("brick", 3.0)
+    threading.Timer(0.2, GATE.set).start()
+    stats = engine.close(drain=False)
+    assert stats["queued"] == 6 == stats["rendered"] + stats["cancelled"] + stats["failed"]
+    assert stats["cancelled"] >= 5 and stats["pending"] == 0
+
+
+def test_close_gives_up_on_a_stuck_render_after_its_timeout(tmp_path, registry):
+    engine = Engine(scene(tmp_path, model="{type: test-gated, gated: true}"), registry=registry)
+    for _ in range(3):
+        engine.impact("brick", 3.0)
+    stats = engine.close(timeout=0.3)  # the gate stays shut: the worker is stuck in render
+    assert stats["cancelled"] == 2 and stats["rendered"] == 0
+    GATE.set()
+
+
+def test_wav_output_is_written_when_the_engine_closes(tmp_path, registry):
+    from scipy.io import wavfile
+
+    path = scene(tmp_path)
+    with Engine(path, device=f"wav:{tmp_path / 'out.wav'}", registry=registry) as engine:
+        engine.impact("brick", 3.0)
+        engine.impact("frame", 3.0)
+    # two outputs (the shared helmet and the frame's own): one file each
+    files = sorted(p.name for p in tmp_path.glob("out-*.wav"))
+    assert files == ["out-actuators_helmet_0.wav", "out-frame.wav"]
+    rate, data = wavfile.read(tmp_path / "out-frame.wav")  # the frame's own memory actuator: 48 kHz
+    assert rate == 48000 and data.size == 9600 and np.isfinite(data).all()
+    rate, data = wavfile.read(tmp_path / "out-actuators_helmet_0.wav")
+    assert rate == 2000 and data.size == 400
+
+
+def test_a_failing_actuator_open_closes_the_ones_already_opened(tmp_path, registry):
+    from hapticfx.errors import DeviceError
+
+    path = scene(tmp_path)
+    with pytest.raises(DeviceError, match="does not exist"):
+        Engine(path, device=f"wav:{tmp_path / 'missing-dir' / 'out.wav'}", registry=registry)
+
+
+def test_hapticfx_Engine_is_exposed_lazily():
+    code = (
+        "import sys, hapticfx\n"
+        "assert 'hapticfx.engine' not in sys.modules\n"
+        "from hapticfx.engine import Engine\n"
+        "assert hapticfx.Engine is Engine\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_a_raising_on_played_callback_is_counted_apart(tmp_path, registry):
+    seen = []
+
+    def callback(played):
+        seen.append(played.object)
+        raise KeyError("the caller's bug")
+
+    engine = Engine(scene(tmp_path), on_played=callback, registry=registry)
+    for _ in range(3):
+        engine.impact("frame", 3.0)
+    stats = engine.close()
+    assert seen == ["frame"] * 3
+    assert stats["rendered"] == 3 and stats["failed"] == 0 and stats["callback_errors"] == 3

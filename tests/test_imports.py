@@ -1,0 +1,48 @@
+"""A scene that needs no neural model or hardware never imports torch, sounddevice or serial."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+HEAVY = ("torch", "sounddevice", "serial")
+
+
+def _modules_after(code: str) -> set[str]:
+    probe = textwrap.dedent(code) + textwrap.dedent("""
+        import json, sys
+        print(json.dumps(sorted(sys.modules)))
+    """)
+    r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    return set(json.loads(r.stdout.strip().splitlines()[-1]))
+
+
+def test_import_list_plugins_and_play_kinetic_energy(tmp_path):
+    effect = tmp_path / "ke.yaml"
+    effect.write_text("name: ke\nobject: concrete-brick\nmodel: {type: kinetic-energy}\n"
+                      "actuator: {type: vibro-transducer}\n")
+    mods = _modules_after(f"""
+        import hapticfx
+        from hapticfx.registry import get_registry
+        from hapticfx.cli import build_app
+        reg = get_registry(); list(reg); build_app()
+        from hapticfx.pipeline import Pipeline
+        with Pipeline.from_effect({str(effect)!r}, device="wav:{tmp_path / 'o.wav'}") as p:
+            p.impact(velocity=3.0)
+    """)
+    loaded = [m for m in HEAVY if m in mods]
+    assert not loaded, f"imported {loaded}"
+
+
+def test_play_linear_data_driven_does_not_import_torch(tmp_path, tiny_dataset):
+    effect = tmp_path / "dd.yaml"
+    effect.write_text(f"name: dd\nobject: concrete-brick\nmodel: {{type: data-driven, dataset: {tiny_dataset}, "
+                      "interpolator: linear}\nactuator: {type: memory}\n")
+    mods = _modules_after(f"""
+        from hapticfx.pipeline import Pipeline
+        with Pipeline.from_effect({str(effect)!r}) as p:
+            p.impact(velocity=3.3)
+    """)
+    assert not [m for m in HEAVY if m in mods]

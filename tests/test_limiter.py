@@ -1,0 +1,88 @@
+"""The safety limiter: for any signal and gain, output stays within the limits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from hapticfx.interfaces import SafetyLimits
+from hapticfx.safety import SafetyLimiter
+
+RATE = 1000.0
+finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+def windowed_rms(x, n):
+    sq = np.concatenate([[0.0], np.cumsum(np.asarray(x, np.float64) ** 2)])
+    n = min(n, len(x))
+    return np.sqrt((sq[n:] - sq[:-n]) / n)
+
+
+@settings(max_examples=150, deadline=None)
+@given(arrays(np.float64, st.integers(1, 400), elements=finite), st.floats(0, 100),
+       st.floats(0.05, 1.0), st.floats(0.05, 1.0))
+def test_peak_and_rms_never_exceeded(x, gain, peak, rms):
+    limits = SafetyLimits(peak=peak, rms=rms, rms_window_s=0.02)
+    out = SafetyLimiter(limits, RATE).process(x * gain)
+    assert np.all(np.isfinite(out))
+    assert np.max(np.abs(out)) <= peak + 1e-12
+    win = int(limits.rms_window_s * RATE)
+    if len(out) >= win:
+        assert np.max(windowed_rms(out, win)) <= rms * (1 + 1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(arrays(np.float64, st.integers(1, 60), elements=st.floats(-5, 5)), min_size=2, max_size=8))
+def test_rms_holds_across_block_boundaries(blocks):
+    limits = SafetyLimits(peak=1.0, rms=0.3, rms_window_s=0.02)
+    lim = SafetyLimiter(limits, RATE)
+    out = np.concatenate([lim.process(b) for b in blocks])
+    win = int(limits.rms_window_s * RATE)
+    if len(out) >= win:
+        assert np.max(windowed_rms(out, win)) <= 0.3 * (1 + 1e-9)
+
+
+def test_events_are_counted():
+    lim = SafetyLimiter(SafetyLimits(peak=0.5, rms=1.0), RATE)
+    lim.process(np.array([0.1, 0.2]))
+    assert lim.report().total == 0
+    lim.process(np.array([0.0, 2.0, -1.0]))
+    rep = lim.report()
+    assert rep.peak_events == 1 and rep.max_reduction_db == pytest.approx(12.0412, abs=1e-3)
+    assert "1 peak" in rep.summary()
+
+
+def test_silence_passes_untouched():
+    lim = SafetyLimiter(SafetyLimits(), RATE)
+    assert np.array_equal(lim.process(np.zeros(100)), np.zeros(100))
+    assert lim.report().total == 0
+
+
+def test_pulse_on_time_and_duty():
+    limits = SafetyLimits(max_on_s=0.05, max_duty=0.1, duty_window_s=1.0)
+    lim = SafetyLimiter(limits, RATE)
+    out = lim.process(np.full(200, 0.5))  # 200 ms pulse, 50 ms allowed
+    assert np.count_nonzero(out > lim.on_threshold) == 50
+    assert lim.report().on_time_events == 1
+    out2 = lim.process(np.full(100, 0.5), at_s=0.3)  # 50 ms more would exceed 100 ms per 1 s
+    assert np.count_nonzero(out2 > lim.on_threshold) == 50
+    out3 = lim.process(np.full(100, 0.5), at_s=0.5)
+    assert np.count_nonzero(out3 > lim.on_threshold) == 0
+    rep = lim.report()
+    assert (rep.on_time_events, rep.duty_events) == (3, 1)  # calls 1-3 exceed 50 ms; only call 3 exceeds the duty budget
+    out4 = lim.process(np.full(40, 0.5), at_s=2.0)  # window passed: budget back
+    assert np.count_nonzero(out4 > lim.on_threshold) == 40
+
+
+def test_effect_cannot_raise_limits():
+    from hapticfx.errors import EffectError
+
+    hard = SafetyLimits(peak=0.8)
+    assert hard.lowered(peak=0.5).peak == 0.5
+    with pytest.raises(EffectError, match="would raise the actuator's hard limit"):
+        hard.lowered(peak=0.9)
+    with pytest.raises(EffectError):
+        hard.lowered(rms_window_s=0.01)  # a shorter window is a weaker limit

@@ -1,0 +1,70 @@
+"""`hapticfx data synth` and `hapticfx bench contact` through the real CLI entry point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hapticfx.cli import main
+from hapticfx.data import contactbench
+from hapticfx.data.dataset import open_dataset
+
+
+def run(capsys, *argv):
+    with pytest.raises(SystemExit) as exit_:
+        main(list(map(str, argv)))
+    out = capsys.readouterr()
+    return exit_.value.code, out.out, out.err
+
+
+def test_data_synth_writes_a_readable_dataset_and_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "sim"
+    args = ("data", "synth", out, "--objects", "plastic-frame,steel-plate", "--velocities", "2.42,3.96",
+            "--drops", 2, "--workers", 1, "--seed", 3)
+    code, stdout, err = run(capsys, *args)
+    assert code == 0, err
+    assert "steel-plate: 3.96 m/s done" in err  # progress on stderr
+    ds = open_dataset(out)
+    assert sorted(ds.objects) == ["plastic-frame", "steel-plate"]
+    v, acc = ds.raw("steel-plate")
+    assert np.allclose(v, [2.42, 3.96]) and acc.shape == (2, 2, 700, 3)
+    assert ds.bank("plastic-frame", "dft321").profiles.shape == (2, 500)
+    prov = ds.meta["provenance"]
+    assert prov["seed"] == 3 and prov["command"].startswith(f"hapticfx data synth {out}")
+    code, _, err = run(capsys, *args)
+    assert code == 2 and "already exists" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("argv,message", [
+    (("--objects", "anvil"), "unknown object 'anvil'"),
+    (("--velocities", "2,fast"), "--velocities must be comma-separated numbers"),
+    (("--velocities", "0,2"), "velocities must be > 0"),
+])
+def test_data_synth_bad_input_is_one_line(tmp_path, capsys, argv, message):
+    code, _, err = run(capsys, "data", "synth", tmp_path / "x", "--drops", 1, *argv)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()
+
+
+def test_data_synth_builtin_takes_no_other_choices(capsys):
+    code, _, err = run(capsys, "data", "synth", "--builtin", "--drops", 3)
+    assert code == 2 and "--builtin regenerates the packaged dataset exactly" in err
+
+
+def test_bench_contact_rejects_unknown_solver(capsys):
+    code, _, err = run(capsys, "bench", "contact", "--solvers", "Euler")
+    assert code == 2 and "unknown solver 'Euler'" in err
+
+
+def test_bench_rows_measure_error_against_the_reference():
+    case = contactbench.Case("short", 1e7, 3.96, duration_s=0.02)
+    rows = contactbench.run(cases=[case], solvers=["RK45", "LSODA"], rtols=[1e-3, 1e-8], repeats=1)
+    assert [(r["solver"], r["rtol"]) for r in rows] == [("RK45", 1e-3), ("LSODA", 1e-3), ("RK45", 1e-8), ("LSODA", 1e-8)]
+    by = {(r["solver"], r["rtol"]): r for r in rows}
+    for solver in ("RK45", "LSODA"):
+        assert by[(solver, 1e-8)]["pos_err_um"] < by[(solver, 1e-3)]["pos_err_um"]
+        assert by[(solver, 1e-8)]["evaluations"] > by[(solver, 1e-3)]["evaluations"]
+    assert by[("RK45", 1e-3)]["ratio"] == 1.0
+    assert rows[0]["ref_pos_err_um"] < 1e-2  # the reference agrees with an independent tight solution
+    table = contactbench.table(rows)
+    assert "| short | LSODA | 1e-08 |" in table

@@ -1,0 +1,99 @@
+"""The `contact` model: registered, built from effect parameters, finite and bounded at the edges."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hapticfx.errors import EffectError
+from hapticfx.interfaces import Impact
+from hapticfx.objects import PAPER_OBJECTS
+from hapticfx.params import BuildContext, parse_params
+from hapticfx.registry import get_registry
+
+
+def build(mapping=None, object_id="wood-beam", info=True):
+    cls = get_registry().get("model", "contact").resolve()
+    params = parse_params(cls.Params, mapping or {}, source="fx.yaml", key="model")
+    ctx = BuildContext(source="fx.yaml", object_id=object_id,
+                       object_info=PAPER_OBJECTS.get(object_id) if info else None)
+    return cls(params, ctx)
+
+
+def test_renders_a_profile_in_g_that_starts_at_the_contact_and_rings():
+    model = build()
+    s = model.render(Impact("wood-beam", 3.96))
+    assert s.rate_hz == 1000.0 and s.n_samples == 500
+    assert np.all(s.samples[:8] == pytest.approx(0.0, abs=1e-9))  # 10 ms of silence before the contact
+    assert 0.5 < s.peak < 50.0
+    tail = np.abs(s.samples[60:200])
+    assert tail.max() > 0.01 * s.peak  # residual vibration after the impact
+
+
+def test_velocity_zero_is_silence_and_harder_hits_are_stronger():
+    model = build()
+    assert not model.render(Impact("wood-beam", 0.0)).samples.any()
+    peaks = [model.render(Impact("wood-beam", v)).peak for v in (0.5, 2.0, 5.0)]
+    assert peaks[0] < peaks[1] < peaks[2]
+
+
+def test_material_and_stiffness_change_the_sound_of_it():
+    soft = build({"stiffness": 1e4}).render(Impact("wood-beam", 3.0)).samples
+    stiff = build({"stiffness": 1e9}).render(Impact("wood-beam", 3.0)).samples
+    assert np.abs(soft).max() < np.abs(stiff).max()
+    assert build({"material": "steel"}).describe()["material"] == "steel"
+
+
+@pytest.mark.parametrize("mass", [1e-3, 10.0])
+@pytest.mark.parametrize("velocity", [0.01, 20.0])
+@pytest.mark.parametrize("stiffness", [1e3, 1e10])
+def test_finite_and_bounded_for_extreme_inputs(mass, velocity, stiffness):
+    model = build({"mass_kg": mass, "stiffness": stiffness, "duration_ms": 200.0})
+    s = model.render(Impact("wood-beam", velocity))
+    assert np.all(np.isfinite(s.samples))
+    # the helmet (3.5 kg) cannot be accelerated beyond what the object's momentum allows per sample
+    bound = 2 * mass * (velocity + 9.81 * 0.2) / 1e-3 / 3.5 / 9.81 * 50 + 1.0
+    assert s.peak < bound
+
+
+def test_other_rate_and_custom_object_without_dimensions():
+    model = build({"rate_hz": 8000.0, "mass_kg": 0.5, "duration_ms": 100.0}, object_id="", info=False)
+    s = model.render(Impact("anvil", 2.0))
+    assert s.rate_hz == 8000.0 and s.n_samples == 800 and s.peak > 0
+
+
+def test_effect_errors_name_file_and_key():
+    with pytest.raises(EffectError, match=r"fx.yaml: model.material: unknown material 'jelly'"):
+        build({"material": "jelly"})
+    with pytest.raises(EffectError, match="model.pre_ms"):
+        build({"pre_ms": 600.0})
+    with pytest.raises(EffectError, match="needs an object"):
+        build(object_id="", info=False)
+    with pytest.raises(EffectError, match=r"model.stiffness: must be <= 1000"):
+        build({"stiffness": 1e12})
+
+
+def test_effect_file_with_contact_model_plays_to_memory(write_effect):
+    from hapticfx.pipeline import Pipeline
+
+    path = write_effect({"name": "c", "object": "steel-plate", "velocity_mps": 4.0,
+                         "model": {"type": "contact"}, "actuator": {"type": "memory"}})
+    with Pipeline.from_effect(path) as p:
+        d = p.impact(velocity=4.0)
+    assert d.profile.n_samples == 500 and d.profile.peak > 0
+    assert np.all(np.abs(d.output.samples) <= 1.0)
+
+
+def test_playing_a_contact_effect_imports_no_heavy_dependency(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    effect = tmp_path / "c.yaml"
+    effect.write_text("name: c\nobject: wood-beam\nmodel: {type: contact}\nactuator: {type: memory}\n")
+    code = (f"from hapticfx.pipeline import Pipeline\n"
+            f"with Pipeline.from_effect({str(effect)!r}) as p:\n    p.impact(velocity=3.0)\n"
+            "import json, sys\nprint(json.dumps(sorted(sys.modules)))\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    mods = set(json.loads(r.stdout.strip().splitlines()[-1]))
+    assert not mods & {"torch", "sounddevice", "serial"}

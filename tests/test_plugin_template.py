@@ -1,0 +1,127 @@
+"""The third-party plugin template (examples/hapticfx-example-actuator) installs into a
+fresh virtual environment, shows in `hapticfx plugins`, and plays an effect through it.
+
+The environment uses --system-site-packages so that numpy, scipy and hapticfx itself
+come from this interpreter (no downloads); the example is installed into the
+environment only, from a copy (building it writes build files next to its sources).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "hapticfx-example-actuator"
+
+pytestmark = pytest.mark.slow
+
+
+def run(*args, env=None, cwd=None, check=True) -> subprocess.CompletedProcess:
+    done = subprocess.run([str(a) for a in args], capture_output=True, text=True, env=env, cwd=cwd, timeout=120)
+    if check and done.returncode != 0:
+        raise AssertionError(f"{args} failed ({done.returncode}):\n{done.stdout}\n{done.stderr}")
+    return done
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory):
+    """A fresh venv with only the example plugin installed into it."""
+    base = tmp_path_factory.mktemp("template")
+    env_dir = base / "venv"
+    run(sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", env_dir)
+    python = env_dir / "bin" / "python"
+    source = base / "src"
+    shutil.copytree(EXAMPLE, source, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
+    run(python, "-m", "pip", "install", "--quiet", "--no-build-isolation", "--no-deps", source)
+    return python, source
+
+
+def read_rows(path: Path) -> list[dict]:
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def clean_env(**extra) -> dict:
+    env = {k: v for k, v in os.environ.items() if k != "HAPTICFX_PLUGINS"}
+    env.update(extra)
+    return env
+
+
+def test_installs_into_the_venv_only(venv):
+    python, _ = venv
+    in_venv = run(python, "-m", "hapticfx", "plugins", env=clean_env()).stdout
+    line = next(l for l in in_venv.splitlines() if " csv-logger " in l)
+    assert line.split() == ["actuator", "csv-logger", "csvlog", "hapticfx-example-actuator", "0.1.0"]
+    outside = run(sys.executable, "-m", "hapticfx", "plugins", env=clean_env()).stdout
+    assert "csv-logger" not in outside
+
+
+def test_allow_list_controls_loading(venv):
+    python, _ = venv
+    only_solenoid = run(python, "-m", "hapticfx", "plugins", env=clean_env(HAPTICFX_PLUGINS="solenoid")).stdout
+    assert "csv-logger" not in only_solenoid
+    only_it = run(python, "-m", "hapticfx", "plugins", env=clean_env(HAPTICFX_PLUGINS="csvlog")).stdout
+    assert "csv-logger" in only_it and "solenoid" not in only_it
+
+
+def test_plays_an_effect_through_it(venv, tmp_path):
+    python, _ = venv
+    effect = tmp_path / "brick_logged.yaml"
+    effect.write_text(textwrap.dedent("""\
+        name: brick-logged
+        object: concrete-brick
+        velocity_mps: 3.8
+        model: {type: kinetic-energy, pulse_ms: 30}
+        actuator:
+          type: csv-logger
+          path: impacts.csv
+          rate_hz: 1000
+          gain: 1.0
+    """))
+    done = run(python, "-m", "hapticfx", "play", effect, "--velocity", "4.2", env=clean_env(), cwd=tmp_path)
+    assert "CSV log" in done.stdout
+    # and through the Python API in the venv, to compare the log with what the pipeline sent
+    check = textwrap.dedent(f"""
+        import numpy as np
+        from hapticfx.pipeline import Pipeline
+        from hapticfx_csvlog.actuator import read_log
+        with Pipeline.from_effect({str(effect)!r}, device={str(tmp_path / 'api.csv')!r}) as p:
+            d = p.impact(velocity=4.2)
+        row, = read_log({str(tmp_path / 'api.csv')!r})
+        assert np.array_equal(row["samples"], d.output.samples)
+        print(row["peak"], row["above_half_s"], row["n_samples"])
+    """)
+    peak, above, n = run(python, "-c", check, env=clean_env()).stdout.split()
+    assert float(above) == pytest.approx(0.030) and int(n) > 0 and float(peak) > 0
+
+
+
+def test_cli_log_matches_a_render(venv, tmp_path):
+    python, _ = venv
+    effect = tmp_path / "e.yaml"
+    effect.write_text("name: e\nobject: steel-plate\nvelocity_mps: 5.24\nmodel: {type: kinetic-energy, pulse_ms: 20}\n"
+                      "actuator: {type: csv-logger, path: out.csv, gain: 1.0}\n")
+    run(python, "-m", "hapticfx", "play", effect, env=clean_env())
+    run(python, "-m", "hapticfx", "play", effect, "--device", tmp_path / "second.csv", env=clean_env())
+    first, = read_rows(tmp_path / "out.csv")
+    second, = read_rows(tmp_path / "second.csv")
+    assert first["samples"] == second["samples"]
+    samples = np.array(first["samples"].split(), dtype=float)
+    assert float(first["above_half_s"]) == pytest.approx(0.020)
+    assert float(first["peak"]) == np.abs(samples).max() > 0
+    assert not list(tmp_path.glob(".*.part"))  # no temporary file left behind
+
+
+def test_the_examples_own_tests_pass_in_the_venv(venv):
+    python, source = venv
+    done = run(python, "-m", "pytest", "-q", "-p", "no:cacheprovider", source / "tests", env=clean_env(), cwd=source)
+    assert " passed" in done.stdout

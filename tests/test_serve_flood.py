@@ -1,0 +1,230 @@
+"""`hapticfx serve` as a real subprocess: 10,000 random and malformed datagrams, then valid impacts.
+
+Targets 127.0.0.1 only. The output is a real WAV actuator, read back after shutdown.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
+from pythonosc.osc_message_builder import OscMessageBuilder
+from scipy.io import wavfile
+
+SCENE = """
+name: flood
+actuators:
+  helmet: {{type: wav, path: {wav}, rate_hz: 8000}}
+effects:
+  concrete-brick:
+    actuator: helmet
+    inline: {{name: brick, object: concrete-brick, model: {{type: kinetic-energy}}, actuator: {{type: vibro-transducer}}}}
+events:
+  osc: {{host: 127.0.0.1, port: 0, max_datagram: 1024, rate_hz: {rate}, burst: {burst}}}
+"""
+
+
+def osc(address, *args) -> bytes:
+    b = OscMessageBuilder(address)
+    for a in args:
+        b.add_arg(*a) if isinstance(a, tuple) else b.add_arg(a)
+    return b.build().dgram
+
+
+def malformed(rng: random.Random) -> list[tuple[str, bytes]]:
+    """10,000 datagrams, each with the one drop reason it must get (known by construction)."""
+    valid = osc("/hapticfx/impact", "concrete-brick", (3.8, "f"))
+    makers = {
+        "not_osc": [
+            lambda: bytes([rng.choice([b for b in range(256) if b not in (0x2F, 0x23)])])
+            + rng.randbytes(rng.randrange(0, 1000)),                        # random bytes, not '/' or '#'
+            lambda: valid[: rng.choice([n for n in range(1, len(valid)) if n % 4])],   # cut mid-word
+            lambda: valid[:-4],                                              # float argument missing
+            lambda: valid + bytes(4),                                        # trailing bytes
+            lambda: b"/" + rng.randbytes(rng.randrange(0, 40)).replace(b"\x00", b"\x01"),  # no terminator
+        ],
+        "oversize": [lambda: rng.randbytes(rng.randrange(1025, 8000))],
+        "bundle": [lambda: _bundle()],
+        "wrong_address": [lambda: osc("/" + "".join(rng.choices("abcxyz/", k=rng.randrange(1, 30))), "concrete-brick", (3.8, "f"))],
+        "wrong_types": [
+            lambda: osc("/hapticfx/impact", "concrete-brick"),
+            lambda: osc("/hapticfx/impact", (3.8, "f"), "concrete-brick"),
+            lambda: osc("/hapticfx/impact", "concrete-brick", "fast"),
+            lambda: osc("/hapticfx/impact", "concrete-brick", (3.8, "f"), (True, "T")),
+        ],
+        "bad_value": [
+            lambda: osc("/hapticfx/impact", "concrete-brick", (-rng.uniform(0.1, 9), "f")),
+            lambda: osc("/hapticfx/impact", "concrete-brick", (math.nan, "d")),
+            lambda: osc("/hapticfx/impact", "concrete-brick", (math.inf, "f")),
+            lambda: osc("/hapticfx/impact", "concrete-brick", (3.8, "f"), (-5, "i")),
+        ],
+        "unknown_object": [lambda: osc("/hapticfx/impact", "".join(rng.choices("qwerty-", k=rng.randrange(1, 60))), (3.8, "f"))],
+    }
+    out = []
+    for _ in range(10_000):
+        reason = rng.choice(list(makers))
+        out.append((reason, rng.choice(makers[reason])()))
+    return out
+
+
+def _bundle() -> bytes:
+    b = OscBundleBuilder(IMMEDIATELY)
+    b.add_content(OscMessageBuilder("/hapticfx/impact").build())
+    return b.build().dgram
+
+
+class Server:
+    """`python -m hapticfx serve` in a subprocess, printing its counters every 0.1 s."""
+
+    def __init__(self, tmp: Path, *, rate=0, burst=500):
+        self.wav = tmp / "helmet.wav"
+        scene = tmp / "scene.yaml"
+        scene.write_text(SCENE.format(wav=self.wav, rate=rate, burst=burst))
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "hapticfx", "serve", str(scene), "--stats-every", "0.1"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        )
+        line = self.proc.stdout.readline()
+        assert line.startswith("listening on 127.0.0.1:"), line + self.proc.stderr.read()
+        self.port = int(line.split()[2].rsplit(":", 1)[1])
+        self.last = None
+
+    def wait_received(self, n: int, timeout: float = 20) -> dict:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            self.last = json.loads(self.proc.stdout.readline())
+            b = self.last["bridge"]
+            if b["received"] + (b["kernel_dropped"] or 0) >= n and self.last["engine"]["pending"] == 0:
+                return self.last
+        raise AssertionError(f"server saw {self.last} after {timeout} s")
+
+    def stop(self) -> dict:
+        self.proc.send_signal(signal.SIGTERM)
+        out, err = self.proc.communicate(timeout=20)
+        assert self.proc.returncode == 0, err
+        return json.loads(out.strip().splitlines()[-1])
+
+
+def test_flood_of_malformed_datagrams_then_a_valid_impact_is_rendered(tmp_path):
+    rng = random.Random(20260521)
+    datagrams = malformed(rng)
+    server = Server(tmp_path)
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+            for i, (_, data) in enumerate(datagrams):
+                client.sendto(data, ("127.0.0.1", server.port))
+                if i % 250 == 249:
+                    time.sleep(0.005)  # pace so the kernel buffer is not the thing being tested
+            server.wait_received(len(datagrams))
+            client.sendto(osc("/hapticfx/impact", "concrete-brick", (3.8, "f")), ("127.0.0.1", server.port))
+            server.wait_received(len(datagrams) + 1)
+        final = server.stop()
+    finally:
+        if server.proc.poll() is None:
+            server.proc.kill()
+    bridge, engine = final["bridge"], final["engine"]
+    assert bridge["kernel_dropped"] == 0, "the OS dropped datagrams: counts below would not be exact"
+    assert bridge["received"] == len(datagrams) + 1
+    assert bridge["received"] == bridge["accepted"] + bridge["dropped_total"]
+    expected = {}
+    for reason, _ in datagrams:
+        expected[reason] = expected.get(reason, 0) + 1
+    assert {k: v for k, v in bridge["dropped"].items() if v} == expected
+    assert bridge["accepted"] == 1
+    assert engine["rendered"] == 1 and engine["failed"] == 0
+    rate, samples = wavfile.read(server.wav)
+    assert rate == 8000 and samples.size > 0 and np.all(np.isfinite(samples))
+    assert 0 < np.max(np.abs(samples)) <= 1.0
+
+
+def test_rate_limited_flood_is_counted_and_serving_resumes(tmp_path):
+    server = Server(tmp_path, rate=200, burst=50)
+    valid = osc("/hapticfx/impact", "concrete-brick", (3.0, "f"))
+    n = 3000
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+            for i in range(n):
+                client.sendto(valid, ("127.0.0.1", server.port))
+                if i % 500 == 499:
+                    time.sleep(0.003)
+            server.wait_received(n)
+            time.sleep(0.3)  # the bucket refills
+            client.sendto(valid, ("127.0.0.1", server.port))
+            server.wait_received(n + 1)
+        final = server.stop()
+    finally:
+        if server.proc.poll() is None:
+            server.proc.kill()
+    bridge, engine = final["bridge"], final["engine"]
+    assert bridge["received"] + bridge["kernel_dropped"] == n + 1
+    assert bridge["received"] == bridge["accepted"] + bridge["dropped_total"]
+    assert bridge["dropped"]["rate_limited"] > n // 2
+    # accepted impacts were queued or dropped by a full queue, then all rendered
+    assert bridge["accepted"] == engine["queued"] == engine["rendered"]
+    assert engine["rendered"] >= 2  # some of the burst, and the one after the bucket refilled
+
+
+@pytest.mark.skipif(shutil.which("oscsend") is None, reason="oscsend (Debian liblo-tools) is not installed")
+def test_oscsend_from_liblo_is_understood(tmp_path):
+    server = Server(tmp_path)
+    try:
+        for args in (["sf", "concrete-brick", "3.8"], ["sfi", "concrete-brick", "4.2", "-1"],
+                     ["sfid", "concrete-brick", "2.9", "-1", "12.25"], ["s", "concrete-brick"]):
+            subprocess.run(["oscsend", "127.0.0.1", str(server.port), "/hapticfx/impact", *args], check=True)
+        server.wait_received(4)
+        final = server.stop()
+    finally:
+        if server.proc.poll() is None:
+            server.proc.kill()
+    bridge = final["bridge"]
+    assert bridge["accepted"] == 3 and bridge["dropped"]["wrong_types"] == 1
+    assert final["engine"]["rendered"] == 3
+
+
+def test_unity_client_bytes_match_the_protocol():
+    """The C# client builds ',sfid' by hand; the same bytes, built here with struct, decode as intended."""
+    from hapticfx.osc import ImpactMessage, decode_message, parse_impact
+
+    def s(text):
+        b = text.encode() + b"\x00"
+        return b + b"\x00" * (-len(b) % 4)
+
+    data = s("/hapticfx/impact") + s(",sfid") + s("steel-plate") + struct.pack(">f", 4.5) + struct.pack(">i", -1) + struct.pack(">d", 3.25)
+    assert parse_impact(*decode_message(data)[1:]) == ImpactMessage("steel-plate", 4.5, None, 3.25)
+    cs = (Path(__file__).parents[1] / "examples/unity/HapticfxOscClient.cs").read_text()
+    assert 'WriteString(buf, ",sfid")' in cs and 'WriteString(buf, "/hapticfx/impact")' in cs
+
+
+def test_serve_errors_are_one_line_and_exit_2(tmp_path):
+    missing = subprocess.run([sys.executable, "-m", "hapticfx", "serve", str(tmp_path / "nope.yaml")],
+                             capture_output=True, text=True, timeout=60)
+    assert missing.returncode == 2 and missing.stderr.strip().count("\n") == 0
+    assert "nope.yaml: file not found" in missing.stderr
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        port = taken.getsockname()[1]
+        (tmp_path / "s.yaml").write_text(SCENE.format(wav=tmp_path / "o.wav", rate=0, burst=1))
+        busy = subprocess.run([sys.executable, "-m", "hapticfx", "serve", str(tmp_path / "s.yaml"), "--port", str(port)],
+                              capture_output=True, text=True, timeout=60)
+    assert busy.returncode == 2 and f"cannot listen for OSC on 127.0.0.1:{port}" in busy.stderr
+    assert "Traceback" not in busy.stderr
+
+
+def test_bench_serve_runs_and_reports_median_and_p99():
+    out = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "serve", "--impacts", "10", "--interval-ms", "0"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "| serve: datagram arrival -> actuator" in out.stdout and "p99 ms" in out.stdout
+    assert '"accepted": 20' in out.stderr  # 10 warm-up + 10 timed, none dropped
