@@ -30,7 +30,8 @@ from haptics import mix, output_limits  # noqa: E402
 from room import simulate  # noqa: E402
 from timeline import plot_timeline  # noqa: E402
 
-from hapticfx.actuators.files import atomic_path, write_wav  # noqa: E402
+from hapticfx.actuators.files import write_wav  # noqa: E402
+from hapticfx.atomic import atomic_path  # noqa: E402
 from hapticfx.engine import Engine  # noqa: E402
 from hapticfx.errors import CheckpointError, DatasetError, HapticfxError, PluginError  # noqa: E402
 from hapticfx.groundmotion import BUILTIN_RECORDS, builtin_record, read_at2, synthetic_ground_motion  # noqa: E402

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hapticfx.actuators.files import atomic_path
+from hapticfx.atomic import atomic_path
 
 COLOURS = {"plastic-frame": "tab:blue", "concrete-brick": "tab:red", "wood-beam": "tab:brown", "steel-plate": "tab:gray"}
 

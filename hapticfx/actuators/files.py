@@ -1,37 +1,14 @@
-"""Atomic writers for rendered signals: WAV, CSV."""
+"""Writers for rendered signals: WAV and CSV, both atomic."""
 
 from __future__ import annotations
 
-import os
 import struct
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import DeviceError
-
-
-@contextmanager
-def atomic_path(path: Path):
-    """Yield a temporary path beside ``path``; move it into place only on success."""
-    path = Path(path)
-    if path.is_dir():
-        raise DeviceError(f"{path}: is a directory, expected a file name")
-    if not path.parent.exists():
-        raise DeviceError(f"{path.parent}: directory does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    try:
-        yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def write_wav(path: Path, samples: np.ndarray, rate_hz: float) -> Path:

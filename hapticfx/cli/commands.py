@@ -145,7 +145,7 @@ def plugins():
 
 def schema(out: Optional[Path] = typer.Option(None, "--out", "-o", help="Write to this file instead of stdout.")):
     """Print the JSON Schema of effect files (for editors), covering the installed plugins."""
-    from ..actuators.files import atomic_path
+    from ..atomic import atomic_path
     from ..schema import effect_schema
 
     text = json.dumps(effect_schema(), indent=2, sort_keys=True) + "\n"

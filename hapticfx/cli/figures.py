@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..actuators.files import atomic_path
+from ..atomic import atomic_path
 
 
 def impact_png(path: Path, delivery, *, title: str, profile_units: str, volts_peak: float) -> Path:

@@ -4,12 +4,11 @@ velocities (like Fig. 6b)."""
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import DatasetError
 from .dataset import Dataset
 
@@ -60,15 +59,9 @@ def plot_object(ds: Dataset, object_id: str, out: Path, *, reducer: str = "max-m
           xlabel="time (ms)", ylabel="acceleration (g)")
     b.legend(fontsize=7, ncol=2, loc="upper right", title="impact velocity")
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".png", dir=out.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with atomic_path(out, make_parents=True) as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
     finally:
         plt.close(fig)
     return out

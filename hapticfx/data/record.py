@@ -13,9 +13,7 @@ Before arming again the signal must stay below the threshold for ``holdoff_s``.
 from __future__ import annotations
 
 import math
-import os
 import re
-import tempfile
 import time
 from collections import deque
 from pathlib import Path
@@ -23,6 +21,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import DeviceError, SignalError
 from ..signal import valid_number
 from .accel_protocol import BAUD, SEQ_MODULO, BoardInfo, parse_hello, parse_sample
@@ -77,16 +76,10 @@ def _next_drop(out_dir: Path, stem: str) -> int:
 
 def write_drop_csv(file: Path, *, object_id: str, velocity_mps: float, drop: int, rate_hz: float, accel_g: np.ndarray) -> None:
     """Write one drop ``(N, 3)`` g as tidy CSV, atomically."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{file.name}.", dir=file.parent)
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            f.write(",".join(COLUMNS) + "\n")
-            for i, (x, y, z) in enumerate(accel_g):
-                f.write(f"{object_id},{velocity_mps!r},{drop},{i / rate_hz:.6f},{x:.6g},{y:.6g},{z:.6g}\n")
-        os.replace(tmp, file)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    with atomic_path(file) as tmp, open(tmp, "w", newline="") as f:
+        f.write(",".join(COLUMNS) + "\n")
+        for i, (x, y, z) in enumerate(accel_g):
+            f.write(f"{object_id},{velocity_mps!r},{drop},{i / rate_hz:.6f},{x:.6g},{y:.6g},{z:.6g}\n")
 
 
 class _Trigger:

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 
 from hapticfx.errors import CheckpointError
+from hapticfx.atomic import atomic_path
 
 FORMAT = "hapticfx-neural-checkpoint"
 VERSION = 1
@@ -22,16 +22,8 @@ WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 
 
 def _atomic_write(path: Path, write) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path, make_parents=True) as tmp:
         write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save(path: Path, tensors: dict, meta: dict) -> None:
