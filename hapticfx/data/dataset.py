@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DatasetError
+from ..errors import DatasetError, HapticfxError
 from ..objects import ObjectInfo
 from .bank import ProfileBank
 
@@ -169,20 +169,26 @@ def load_npz(file: Path, required: tuple[str, ...]) -> dict[str, np.ndarray]:
         raise DatasetError(f"{file}: corrupt or unreadable ({exc})") from exc
 
 
+def read_versioned_json(file: Path, *, format: str, version: int, error: type[HapticfxError]) -> dict:
+    """A JSON metadata file that names its ``format`` and ``version``; anything else raises ``error``."""
+    try:
+        meta = json.loads(Path(file).read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise error(f"{file}: corrupt metadata ({exc})") from exc
+    if not isinstance(meta, dict) or meta.get("format") != format:
+        raise error(f"{file}: not a {format} file")
+    if meta.get("version") != version:
+        raise error(f"{file}: format version {meta.get('version')!r}; this hapticfx reads version {version}")
+    return meta
+
+
 def open_dataset(ref: str | os.PathLike, *, relative_to: Path | None = None) -> Dataset:
     """Open a dataset by path or ``builtin:NAME``; reads only its metadata."""
     path = resolve_dataset_path(ref, relative_to=relative_to)
     meta_file = path / "dataset.json"
     if not meta_file.is_file():
         raise DatasetError(f"{path}: not a hapticfx dataset (no dataset.json)")
-    try:
-        meta = json.loads(meta_file.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise DatasetError(f"{meta_file}: corrupt metadata ({exc})") from exc
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise DatasetError(f"{meta_file}: not a {FORMAT} file")
-    if meta.get("version") != VERSION:
-        raise DatasetError(f"{meta_file}: format version {meta.get('version')!r}; this hapticfx reads version {VERSION}")
+    meta = read_versioned_json(meta_file, format=FORMAT, version=VERSION, error=DatasetError)
     for key in ("rate_hz", "n_samples", "objects"):
         if key not in meta:
             raise DatasetError(f"{meta_file}: missing key {key!r}")

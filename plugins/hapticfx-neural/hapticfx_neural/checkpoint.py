@@ -15,6 +15,7 @@ from pathlib import Path
 
 from hapticfx.errors import CheckpointError
 from hapticfx.atomic import atomic_path
+from hapticfx.data.dataset import read_versioned_json
 
 FORMAT = "hapticfx-neural-checkpoint"
 VERSION = 1
@@ -52,15 +53,7 @@ def read_meta(path: Path) -> dict:
     if not Path(path).is_file() or not meta_file.is_file():
         raise CheckpointError(f"{path}: checkpoint not found (needs {Path(path).name} and {meta_file.name}); "
                               "train one with `hapticfx train CONFIG.yaml`")
-    try:
-        meta = json.loads(meta_file.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CheckpointError(f"{meta_file}: corrupt checkpoint metadata ({exc})") from exc
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise CheckpointError(f"{meta_file}: not a {FORMAT} file")
-    if meta.get("version") != VERSION:
-        raise CheckpointError(f"{meta_file}: checkpoint version {meta.get('version')!r}; this plugin reads {VERSION}")
-    return meta
+    return read_versioned_json(meta_file, format=FORMAT, version=VERSION, error=CheckpointError)
 
 
 def load_tensors(path: Path) -> dict:
