@@ -23,6 +23,14 @@ def test_every_hook_has_a_test():
     assert not missing, f"hooks without a test: {missing}"
 
 
+def test_every_hook_is_documented_in_the_plugin_guide():
+    from pathlib import Path
+
+    guide = (Path(__file__).resolve().parents[1] / "docs" / "plugin-guide.md").read_text()
+    missing = [h for h in hook_names() if f"`{h}" not in guide]
+    assert not missing, f"hooks missing from docs/plugin-guide.md: {missing}"
+
+
 def test_every_hook_has_a_docstring():
     for name in hook_names():
         assert (getattr(hookspecs, name).__doc__ or "").strip(), name
