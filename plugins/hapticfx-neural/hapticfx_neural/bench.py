@@ -47,7 +47,7 @@ class BenchOptions:
     seed: int = 0
     config: Path | None = None
     out: Path = Path("bench-interpolators")
-    threads: int = 2
+    threads: int = 1
 
 
 def _rmse(a, b) -> float:

@@ -81,5 +81,8 @@ def interpolators(
 
 
 def register(app: typer.Typer, bench: typer.Typer) -> None:
+    from .bench_threads import threads
+
     app.command("train")(train)
     bench.command("interpolators")(interpolators)
+    bench.command("threads")(threads)

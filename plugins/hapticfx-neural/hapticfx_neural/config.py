@@ -31,7 +31,7 @@ MODEL_DEFAULTS: dict[str, dict] = {
 }
 TRAINING_DEFAULTS = {
     "epochs": 100, "batch_size": 8, "learning_rate": 1e-4, "beta1": 0.9, "val_fraction": 0.2,
-    "patience": 30, "seed": 0, "threads": 2,
+    "patience": 30, "seed": 0, "threads": 1,
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
             "model", "training", "out")

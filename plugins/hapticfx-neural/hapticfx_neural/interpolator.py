@@ -78,7 +78,7 @@ class NeuralInterpolator(Interpolator):
     arch: ClassVar[str]
 
     def __init__(self, *, weights: str | os.PathLike | None = None, cache: bool = False,
-                 grid_step_mps: float = DEFAULT_GRID_STEP, threads: int = 2, config: str | os.PathLike | None = None):
+                 grid_step_mps: float = DEFAULT_GRID_STEP, threads: int = 1, config: str | os.PathLike | None = None):
         if not isinstance(cache, bool):
             raise SignalError(f"interpolator_options.cache must be true or false, got {cache!r}")
         self.weights = None if weights is None else Path(weights).expanduser()

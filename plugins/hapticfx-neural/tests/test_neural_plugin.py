@@ -95,3 +95,14 @@ def test_shipped_weights_play_the_brick_with_convbilstm(tmp_path):
     with Pipeline.from_effect(effect) as p:
         d = p.impact(velocity=3.8)
     assert d.profile.n_samples == 500 and np.all(np.isfinite(d.profile.samples)) and d.profile.peak > 0
+
+
+def test_bench_threads_compares_thread_counts_under_load(tmp_path, syn_dataset):
+    cfg = tiny_config(tmp_path, syn_dataset, epochs=1)
+    r = _cli("bench", "threads", "--config", str(cfg), "--epochs", "1", "--busy", "1")
+    assert r.returncode == 0, r.stderr
+    rows = [line for line in r.stdout.splitlines() if line.startswith("| convbilstm training epoch")]
+    assert [row.split("|")[2].strip() for row in rows] == ["1", "2"]
+    assert "with 1 other busy process(es)" in r.stdout and "fastest here:" in r.stdout
+    r = _cli("bench", "threads", "--config", str(cfg), "--counts", "0")
+    assert r.returncode == 2 and "thread counts must be >= 1" in r.stderr
