@@ -1,0 +1,46 @@
+"""The endpoint-consistent form of every learned interpolator: a linear blend plus a bounded residual.
+
+For a velocity ``v`` between the recorded neighbours ``lower`` (at ``v_lo``) and
+``upper`` (at ``v_hi``)::
+
+    w       = (v - v_lo) / (v_hi - v_lo)                      in [0, 1]
+    s       = max(max|lower|, max|upper|)                     (1 when both are silent)
+    profile = (1 - w) * lower + w * upper + 4 w (1 - w) * s * r(v)
+
+``r`` is what a method learns: a dimensionless residual (shapes of order 1). The
+bump ``4 w (1 - w)`` is zero at both ends, so the recorded neighbour comes back
+exactly at its own velocity whatever ``r`` is, and the profile is continuous in
+``v`` wherever ``r`` is. A table of ``r`` on a velocity grid therefore needs no
+special blending next to recorded velocities (:mod:`hapticfx.interpolators.table`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_SILENT = 1e-12
+
+
+def weight(v_lo, v_hi, v):
+    """Relative position ``w`` of ``v`` between the neighbours, clipped to [0, 1] (scalars or arrays)."""
+    return np.clip((np.asarray(v, dtype=np.float64) - v_lo) / (np.asarray(v_hi, dtype=np.float64) - v_lo), 0.0, 1.0)
+
+
+def scale(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """``s``: the larger peak of the two neighbours, per row (``(..., N)`` -> ``(...)``); 1 where both are silent."""
+    s = np.maximum(np.abs(lower).max(axis=-1), np.abs(upper).max(axis=-1))
+    return np.where(s > _SILENT, s, 1.0)
+
+
+def bump(w):
+    """``4 w (1 - w)``: zero at both neighbours, one halfway."""
+    w = np.asarray(w, dtype=np.float64)
+    return 4.0 * w * (1.0 - w)
+
+
+def compose(lower: np.ndarray, upper: np.ndarray, w, residual: np.ndarray) -> np.ndarray:
+    """The profile for relative position ``w`` and residual ``r`` (broadcast over leading axes)."""
+    w = np.asarray(w, dtype=np.float64)[..., None]
+    s = scale(lower, upper)[..., None]
+    return (1.0 - w) * lower + w * upper + 4.0 * w * (1.0 - w) * s * residual
+

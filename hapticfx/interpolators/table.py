@@ -1,0 +1,275 @@
+"""Velocity tables: a learned interpolator served as numbers, without its learning library.
+
+A table holds, for every object of a dataset and every interval between two of
+its recorded velocities, the method's residual ``r`` (see
+:mod:`hapticfx.interpolators.residual`) at a few positions ``w`` in [0, 1]: the
+Chebyshev-Lobatto points of some degree ``d`` (0 and 1 among them). A lookup
+evaluates the polynomial through them (barycentric formula) and composes the
+profile. The degree is chosen when the table is built: each interval starts at
+``d = 1`` (the two ends, a straight line) and doubles ``d`` until the table agrees
+with the method itself at the points of degree ``4 d`` (``tolerance``, relative to
+the neighbours' larger peak). A method whose residual is affine in velocity (the
+neural interpolators, whose velocity enters only their last linear layer, and the
+``ensemble`` interpolator) needs only the two ends; a smooth curved one converges
+in a few doublings.
+
+A table records what it was built from: the interpolator, a ``source`` (for
+example the weights' SHA-256) and each object's bank digest. A table whose source
+or bank no longer matches is refused with a message naming the file, so a stale
+table can never be served.
+
+File: one ``.npz`` (no pickle) holding ``meta_json`` and, per object ``k``,
+``o<k>.w`` (nodes of all intervals, concatenated), ``o<k>.starts`` (where each
+interval's nodes start; one more entry than intervals) and ``o<k>.residual``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import zipfile
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+from typing import Callable, Iterable
+
+import numpy as np
+
+from ..atomic import atomic_path
+from ..errors import CheckpointError
+from ..interfaces import Profile
+from .residual import bump, compose, weight
+
+FORMAT = "hapticfx-interpolator-table"
+VERSION = 1
+DEFAULT_TOLERANCE = 1e-9
+_MAX_DEGREE = 256
+
+# residual_fn(lower (n, N), upper (n, N), v_lo (n,), v_hi (n,), v (n,), object id) -> r (n, N)
+ResidualFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, str], np.ndarray]
+
+
+def bank_digest(bank) -> str:
+    """SHA-256 of a bank's rate, velocities and profiles (float64): what a table was built for."""
+    h = hashlib.sha256()
+    h.update(np.array(bank.rate_hz, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(bank.velocities, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(bank.profiles, dtype="<f8").tobytes())
+    return h.hexdigest()
+
+
+def _key(lower: Profile, upper: Profile) -> tuple:
+    # Objects of one dataset often share their recorded velocities: the neighbours' samples tell them apart.
+    return (float(lower.velocity), float(upper.velocity), hash(lower.samples.tobytes()), hash(upper.samples.tobytes()))
+
+
+@dataclass(frozen=True)
+class Interval:
+    """The residual of one recorded interval at nodes ``w`` (0 first, 1 last, increasing)."""
+
+    w: np.ndarray
+    residual: np.ndarray
+
+    def __post_init__(self):
+        diff = self.w[:, None] - self.w[None, :]
+        np.fill_diagonal(diff, 1.0)
+        object.__setattr__(self, "_bary", 1.0 / diff.prod(axis=1))
+
+    def at(self, w: float) -> np.ndarray:
+        """The residual at ``w`` (barycentric interpolation through the nodes; a line for two nodes)."""
+        d = w - self.w
+        hit = np.flatnonzero(d == 0.0)
+        if hit.size:
+            return self.residual[hit[0]]
+        c = self._bary / d
+        return (c @ self.residual) / c.sum()
+
+
+class VelocityTable:
+    """Residuals of one interpolator on a velocity grid, per object and recorded interval.
+
+    Build with :func:`build_table`, read with :meth:`load`. Before serving an
+    object, :meth:`attach` checks that its bank is the one the table was built
+    from; :meth:`lookup` then answers for that bank's intervals.
+    """
+
+    def __init__(self, meta: dict, intervals: dict[str, list[Interval]], *, path: Path | None = None):
+        self.meta = meta
+        self.intervals = intervals
+        self.path = path
+        self._index: dict[tuple, Interval] = {}
+
+    @property
+    def where(self) -> str:
+        return str(self.path) if self.path else "velocity table"
+
+    @property
+    def n_nodes(self) -> int:
+        return sum(len(iv.w) for ivs in self.intervals.values() for iv in ivs)
+
+    def check_source(self, interpolator: str, source: dict, *, rebuild: str) -> None:
+        """Refuse a table made by another interpolator or from other weights/parameters."""
+        if self.meta["interpolator"] != interpolator:
+            raise CheckpointError(f"{self.where}: a table of interpolator {self.meta['interpolator']!r}, "
+                                  f"not {interpolator!r}")
+        made = self.meta["source"]
+        for key, value in source.items():
+            if made.get(key) != value:
+                raise CheckpointError(f"{self.where}: stale: built for {key} {made.get(key)!r}, now {value!r}; "
+                                      f"{rebuild}")
+
+    def attach(self, bank, *, rebuild: str) -> None:
+        """Check that ``bank`` is the one this table was built from, and index its intervals for lookups."""
+        obj = self.meta["objects"].get(bank.object)
+        if obj is None:
+            raise CheckpointError(f"{self.where}: no table for object {bank.object!r} (has: "
+                                  f"{', '.join(self.meta['objects']) or 'none'}); {rebuild}")
+        if self.meta["reducer"] != bank.reducer:
+            raise CheckpointError(f"{self.where}: built for reducer {self.meta['reducer']!r} banks, "
+                                  f"not {bank.reducer!r}; {rebuild}")
+        if obj["bank_sha256"] != bank_digest(bank):
+            raise CheckpointError(f"{self.where}: stale: the bank of {bank.object!r} changed since the table was "
+                                  f"built; {rebuild}")
+        for i, iv in enumerate(self.intervals[bank.object]):
+            self._index[_key(bank[i], bank[i + 1])] = iv
+
+    def lookup(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray | None:
+        """The profile at ``velocity`` between two attached neighbours, or None for unknown neighbours."""
+        iv = self._index.get(_key(lower, upper))
+        if iv is None:
+            return None
+        w = float(weight(lower.velocity, upper.velocity, velocity))
+        return compose(lower.samples, upper.samples, w, iv.at(w))
+
+    # -- file -----------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Write the table atomically (one ``.npz``, no pickle)."""
+        path = Path(path)
+        arrays = {"meta_json": np.array(json.dumps(self.meta, sort_keys=True))}
+        for k, obj in enumerate(self.meta["objects"]):
+            ivs = self.intervals[obj]
+            arrays[f"o{k}.w"] = np.concatenate([iv.w for iv in ivs])
+            arrays[f"o{k}.starts"] = np.cumsum([0] + [len(iv.w) for iv in ivs]).astype(np.int64)
+            arrays[f"o{k}.residual"] = np.concatenate([iv.residual for iv in ivs])
+        with atomic_path(path, make_parents=True) as tmp:
+            with open(tmp, "wb") as fh:
+                np.savez_compressed(fh, **arrays)
+        self.path = path
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> "VelocityTable":
+        """Read and validate a table file; anything malformed is a :class:`CheckpointError` naming it."""
+        path = Path(path)
+        if not path.is_file():
+            raise CheckpointError(f"{path}: velocity table not found")
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+            meta = json.loads(str(arrays.pop("meta_json")))
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, json.JSONDecodeError) as exc:
+            raise CheckpointError(f"{path}: corrupt or unreadable velocity table ({exc})") from exc
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+            raise CheckpointError(f"{path}: not a {FORMAT} file")
+        if meta.get("version") != VERSION:
+            raise CheckpointError(f"{path}: table format version {meta.get('version')!r}; "
+                                  f"this hapticfx reads version {VERSION}")
+        try:
+            return cls(meta, _intervals(meta, arrays), path=path)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise CheckpointError(f"{path}: malformed velocity table ({exc})") from exc
+
+    def describe(self) -> dict:
+        return {"table": self.where, "interpolator": self.meta["interpolator"], "objects": len(self.intervals),
+                "nodes": self.n_nodes, "tolerance": self.meta["tolerance"]}
+
+
+def _intervals(meta: dict, arrays: dict) -> dict[str, list[Interval]]:
+    for key in ("interpolator", "source", "dataset", "reducer", "objects", "n_samples", "tolerance"):
+        if key not in meta:
+            raise KeyError(f"metadata has no {key!r}")
+    n = int(meta["n_samples"])
+    out = {}
+    for k, (obj, info) in enumerate(meta["objects"].items()):
+        w, starts, res = arrays[f"o{k}.w"], arrays[f"o{k}.starts"], arrays[f"o{k}.residual"]
+        n_iv = len(info["velocities"]) - 1
+        if starts.shape != (n_iv + 1,) or starts[0] != 0 or starts[-1] != len(w) or res.shape != (len(w), n):
+            raise ValueError(f"object {obj!r}: arrays do not match its {n_iv} intervals of {n}-sample profiles")
+        if w.dtype.kind != "f" or res.dtype.kind != "f" or not (np.all(np.isfinite(w)) and np.all(np.isfinite(res))):
+            raise ValueError(f"object {obj!r}: nodes and residuals must be finite floats")
+        ivs = []
+        for a, b in zip(starts[:-1], starts[1:]):
+            node = w[a:b]
+            if len(node) < 2 or node[0] != 0.0 or node[-1] != 1.0 or np.any(np.diff(node) <= 0):
+                raise ValueError(f"object {obj!r}: each interval needs nodes from 0 to 1, increasing")
+            ivs.append(Interval(node.astype(np.float64), res[a:b].astype(np.float64)))
+        out[obj] = ivs
+    return out
+
+
+def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, source: dict, dataset: str,
+                tolerance: float = DEFAULT_TOLERANCE, progress: Callable[[str], None] | None = None) -> VelocityTable:
+    """Tabulate ``residual_fn`` over every recorded interval of ``banks`` (one per object, one reducer).
+
+    Each interval starts with the nodes ``w`` = 0 and 1 and doubles the number of
+    Chebyshev-Lobatto nodes until the polynomial through them misses the method by
+    at most ``tolerance`` (relative to the neighbours' larger peak) at the points of
+    four times the degree.
+    """
+    banks = list(banks)
+    if not banks:
+        raise CheckpointError("no banks to tabulate")
+    reducers = {b.reducer for b in banks}
+    lengths = {b.n_samples for b in banks}
+    if len(reducers) != 1 or len(lengths) != 1:
+        raise CheckpointError(f"one table holds banks of one reducer and profile length; got {reducers}, {lengths}")
+    meta = {"format": FORMAT, "version": VERSION, "interpolator": interpolator, "source": source,
+            "dataset": dataset, "reducer": reducers.pop(), "n_samples": lengths.pop(), "tolerance": tolerance,
+            "objects": {}}
+    intervals = {}
+    say = progress or (lambda message: None)
+    for bank in banks:
+        ivs = [_tabulate(bank, i, residual_fn, tolerance) for i in range(len(bank) - 1)]
+        intervals[bank.object] = ivs
+        meta["objects"][bank.object] = {"bank_sha256": bank_digest(bank), "velocities": bank.velocities.tolist()}
+        say(f"{bank.object}: {len(ivs)} intervals, {sum(len(iv.w) for iv in ivs)} nodes")
+    return VelocityTable(meta, intervals)
+
+
+def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float) -> Interval:
+    lo, hi = bank[i], bank[i + 1]
+    known: dict[Fraction, np.ndarray] = {}  # node j of degree d is the fraction j/d: nested degrees share nodes
+
+    def nodes(degree: int) -> list[Fraction]:
+        return [Fraction(j, degree) for j in range(degree + 1)]
+
+    def position(f: Fraction) -> float:
+        return 0.5 - 0.5 * math.cos(math.pi * float(f))
+
+    def fill(fracs: list[Fraction]) -> None:
+        todo = [f for f in fracs if f not in known]
+        if todo:
+            ws = np.array([position(f) for f in todo])
+            v = lo.velocity + ws * (hi.velocity - lo.velocity)
+            n = len(todo)
+            r = residual_fn(np.repeat(lo.samples[None], n, 0), np.repeat(hi.samples[None], n, 0),
+                            np.full(n, lo.velocity), np.full(n, hi.velocity), v, bank.object)
+            known.update(zip(todo, np.asarray(r, dtype=np.float64).reshape(n, bank.n_samples)))
+
+    degree = 1
+    while True:
+        fill(nodes(4 * degree))
+        iv = Interval(np.array([position(f) for f in nodes(degree)]), np.stack([known[f] for f in nodes(degree)]))
+        probes = [f for f in nodes(4 * degree) if f not in set(nodes(degree))]
+        err = max(float(np.max(bump(position(f)) * np.abs(known[f] - iv.at(position(f))))) for f in probes)
+        if err <= tolerance:
+            return iv
+        if 2 * degree > _MAX_DEGREE:
+            raise CheckpointError(f"{bank.object}: the interpolator's residual between {lo.velocity:g} and "
+                                  f"{hi.velocity:g} m/s is not smooth enough to tabulate within {tolerance:g} "
+                                  f"(still {err:.2g} with {degree + 1} nodes)")
+        degree *= 2
+
+
+__all__ = ["VelocityTable", "Interval", "build_table", "bank_digest", "DEFAULT_TOLERANCE"]
