@@ -52,13 +52,31 @@ class Reducer(abc.ABC):
         """Return the 1D signal for each 3-axis recording in ``xyz``."""
 
 
+@dataclass(frozen=True)
+class TrainingData:
+    """What an interpolator learns from: one bank per object and, where recorded, every drop.
+
+    ``banks`` maps an object id to its bank, with any held-out velocity already
+    removed. ``drops`` maps an object id to ``(velocities (V,), drops (V, D, N))``:
+    every recorded drop, reduced like the bank (empty for a dataset without raw
+    recordings). ``targets``, when given, restricts which recorded velocities of each
+    object are training targets. See :func:`hapticfx.data.training.training_data`.
+    """
+
+    banks: dict[str, "ProfileBank"]
+    reducer: str
+    dataset: str = "<banks>"
+    drops: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    targets: dict[str, list[float]] | None = None
+
+
 class Interpolator(abc.ABC):
     """Predicts the profile at ``velocity`` from its two recorded neighbours."""
 
     name: ClassVar[str]
 
-    def fit(self, bank: "ProfileBank", **options) -> dict:
-        """Learn from a bank; returns a summary (losses, epochs). Default: nothing to learn."""
+    def fit(self, data: TrainingData, **options) -> dict:
+        """Learn from ``data``; returns a summary (losses, epochs, choices). Default: nothing to learn."""
         return {}
 
     def prepare(self, bank: "ProfileBank", *, dataset: "Dataset | None" = None, base_dir: Path | None = None) -> None:
@@ -73,6 +91,10 @@ class Interpolator(abc.ABC):
 
     def save(self, path: Path) -> None:
         """Write learnt state to ``path``. Default: nothing to save."""
+
+    def describe(self) -> dict:
+        """Where the profiles come from (for ``hapticfx info``). Default: nothing to add."""
+        return {}
 
     def load(self, path: Path) -> None:
         """Read learnt state from ``path``. Default: nothing to load."""

@@ -89,9 +89,9 @@ def test_recorded_neighbours_come_back_exactly_and_unknown_ones_miss():
     assert table.lookup(other[0], other[1], 2.2) is None
 
 
-def test_objects_sharing_velocities_are_told_apart():
-    a, b = _bank("a", 1.0), _bank("b", -3.0)
-    table = _table(affine, [a, b])
+def test_objects_sharing_velocities_are_told_apart(tmp_path):
+    a, b = _bank("b", 1.0), _bank("a", -3.0)  # not in sorted order
+    table = VelocityTable.load(_table(affine, [a, b]).save(tmp_path / "t.table.npz"))
     table.attach(a, rebuild="x")
     table.attach(b, rebuild="x")
     for bank in (a, b):

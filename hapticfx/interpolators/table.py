@@ -18,7 +18,7 @@ example the weights' SHA-256) and each object's bank digest. A table whose sourc
 or bank no longer matches is refused with a message naming the file, so a stale
 table can never be served.
 
-File: one ``.npz`` (no pickle) holding ``meta_json`` and, per object ``k``,
+File: one ``.npz`` (no pickle) holding ``meta_json`` and, per object ``k`` (in sorted order of ids),
 ``o<k>.w`` (nodes of all intervals, concatenated), ``o<k>.starts`` (where each
 interval's nodes start; one more entry than intervals) and ``o<k>.residual``.
 """
@@ -100,6 +100,20 @@ class VelocityTable:
         self.path = path
         self._index: dict[tuple, Interval] = {}
 
+    @classmethod
+    def of(cls, banks: dict, intervals: dict[str, list[Interval]], *, interpolator: str, source: dict, dataset: str,
+           tolerance: float, **extra) -> "VelocityTable":
+        """A table of ``intervals`` for ``banks`` (object -> bank, one reducer and profile length)."""
+        reducers = {b.reducer for b in banks.values()}
+        lengths = {b.n_samples for b in banks.values()}
+        if len(reducers) != 1 or len(lengths) != 1:
+            raise CheckpointError(f"one table holds banks of one reducer and profile length; got {reducers}, {lengths}")
+        meta = {"format": FORMAT, "version": VERSION, "interpolator": interpolator, "source": source,
+                "dataset": dataset, "reducer": reducers.pop(), "n_samples": lengths.pop(), "tolerance": tolerance,
+                "objects": {obj: {"bank_sha256": bank_digest(b), "velocities": b.velocities.tolist()}
+                            for obj, b in banks.items()}, **extra}
+        return cls(meta, intervals)
+
     @property
     def where(self) -> str:
         return str(self.path) if self.path else "velocity table"
@@ -147,7 +161,7 @@ class VelocityTable:
         """Write the table atomically (one ``.npz``, no pickle)."""
         path = Path(path)
         arrays = {"meta_json": np.array(json.dumps(self.meta, sort_keys=True))}
-        for k, obj in enumerate(self.meta["objects"]):
+        for k, obj in enumerate(sorted(self.meta["objects"])):
             ivs = self.intervals[obj]
             arrays[f"o{k}.w"] = np.concatenate([iv.w for iv in ivs])
             arrays[f"o{k}.starts"] = np.cumsum([0] + [len(iv.w) for iv in ivs]).astype(np.int64)
@@ -191,7 +205,8 @@ def _intervals(meta: dict, arrays: dict) -> dict[str, list[Interval]]:
             raise KeyError(f"metadata has no {key!r}")
     n = int(meta["n_samples"])
     out = {}
-    for k, (obj, info) in enumerate(meta["objects"].items()):
+    for k, obj in enumerate(sorted(meta["objects"])):
+        info = meta["objects"][obj]
         w, starts, res = arrays[f"o{k}.w"], arrays[f"o{k}.starts"], arrays[f"o{k}.residual"]
         n_iv = len(info["velocities"]) - 1
         if starts.shape != (n_iv + 1,) or starts[0] != 0 or starts[-1] != len(w) or res.shape != (len(w), n):
@@ -217,24 +232,16 @@ def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, 
     at most ``tolerance`` (relative to the neighbours' larger peak) at the points of
     four times the degree.
     """
-    banks = list(banks)
+    banks = {b.object: b for b in banks}
     if not banks:
         raise CheckpointError("no banks to tabulate")
-    reducers = {b.reducer for b in banks}
-    lengths = {b.n_samples for b in banks}
-    if len(reducers) != 1 or len(lengths) != 1:
-        raise CheckpointError(f"one table holds banks of one reducer and profile length; got {reducers}, {lengths}")
-    meta = {"format": FORMAT, "version": VERSION, "interpolator": interpolator, "source": source,
-            "dataset": dataset, "reducer": reducers.pop(), "n_samples": lengths.pop(), "tolerance": tolerance,
-            "objects": {}}
-    intervals = {}
     say = progress or (lambda message: None)
-    for bank in banks:
-        ivs = [_tabulate(bank, i, residual_fn, tolerance) for i in range(len(bank) - 1)]
-        intervals[bank.object] = ivs
-        meta["objects"][bank.object] = {"bank_sha256": bank_digest(bank), "velocities": bank.velocities.tolist()}
-        say(f"{bank.object}: {len(ivs)} intervals, {sum(len(iv.w) for iv in ivs)} nodes")
-    return VelocityTable(meta, intervals)
+    intervals = {}
+    for obj, bank in banks.items():
+        intervals[obj] = [_tabulate(bank, i, residual_fn, tolerance) for i in range(len(bank) - 1)]
+        say(f"{obj}: {len(intervals[obj])} intervals, {sum(len(iv.w) for iv in intervals[obj])} nodes")
+    return VelocityTable.of(banks, intervals, interpolator=interpolator, source=source, dataset=dataset,
+                            tolerance=tolerance)
 
 
 def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float) -> Interval:

@@ -92,5 +92,5 @@ class DataDrivenModel(Model):
     def describe(self) -> dict:
         return {
             "model": self.name, "dataset": str(self.dataset.path), "reducer": self.params.reducer,
-            "interpolator": self.params.interpolator, "outside": self.params.outside,
+            "interpolator": self.params.interpolator, **self.interpolator.describe(), "outside": self.params.outside,
         }
