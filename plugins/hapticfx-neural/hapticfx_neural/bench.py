@@ -172,9 +172,9 @@ def _continuity_and_range(method: str, interp, dataset_ref: str, opts: BenchOpti
         interp.save(path)
         options["weights"] = str(path)
     res = {}
-    for cached in ([False, True] if method in opts.cached else [False]):
-        if cached:
-            options = {**options, "cache": True, "grid_step_mps": opts.grid_step}
+    for cached in [False]:
+        if method != "linear":
+            options = {**options, "cache": False}
         model = DataDrivenModel(DataDrivenModel.Params(dataset=dataset_ref, reducer=opts.reducer, interpolator=interp.name,
                                                        interpolator_options=dict(options)), BuildContext())
         worst = {"jump_g": 0.0, "relative": 0.0, "object": None, "velocity": None}
@@ -192,53 +192,6 @@ def _continuity_and_range(method: str, interp, dataset_ref: str, opts: BenchOpti
                 finite &= bool(np.all(np.isfinite(model.profile(obj, float(v)))))
         res["cached" if cached else "direct"] = {**worst, "finite_0_20": finite, "outside": model.params.outside}
     return res
-
-
-def _cache_report(interp, banks, tests, opts: BenchOptions) -> dict:
-    """Cached mode: build time per object, added error against direct inference, cached RMSE at the test velocities."""
-
-    build, rmse = [], {}
-    diffs = {"inner": [], "ends": []}
-    from .samples import stack_triples
-
-    for obj, bank in banks.items():
-        t = time.perf_counter()
-        cache = _cache(bank, interp, opts.grid_step)
-        build.append(time.perf_counter() - t)
-        # worst case for the blend: halfway between grid nodes, against direct inference there; the
-        # first and last half-steps of an interval blend into the recorded profiles ("ends")
-        probes = []
-        for (vlo, vhi, *_), (nodes, _) in cache.intervals.items():
-            mids = 0.5 * (nodes[:-1] + nodes[1:])
-            probes += [(bank[bank.index_of(vlo)], bank[bank.index_of(vhi)], float(m), k in (0, len(mids) - 1))
-                       for k, m in enumerate(mids)]
-        direct = interp.predict(stack_triples([(lo, hi, m, None) for lo, hi, m, _ in probes], [obj] * len(probes)))
-        scale = max(_rmse(bank.profiles, 0 * bank.profiles), 1e-12)
-        for (lo, hi, m, end), d in zip(probes, direct):
-            diffs["ends" if end else "inner"].append(_rmse(cache.lookup(lo, hi, m), d) / scale)
-        n_profiles = cache.n_profiles
-    for v in tests:
-        for obj, (lo, hi, truth) in _test_split(banks, v).items():
-            mini = ProfileBank(obj, opts.reducer, banks[obj].rate_hz, np.array([lo.velocity, hi.velocity]),
-                               np.stack([lo.samples, hi.samples]))
-            c = _cache(mini, interp, opts.grid_step)
-            rmse[(obj, v)] = _rmse(c.lookup(lo, hi, v), truth)
-    first = next(iter(banks.values()))
-    interp.cache = _cache(first, interp, opts.grid_step)
-    lo, hi = first.neighbours(tests[0])
-    lat = _latency(lambda: interp.interpolate(lo, hi, tests[0]), opts.repeats)
-    interp.cache = None
-    return {"grid_step_mps": opts.grid_step, "build_s_per_object": statistics.median(build),
-            "profiles_per_object": n_profiles, "rmse": rmse, "latency": lat,
-            "added_rel": {k: {"mean": float(np.mean(v)), "max": float(np.max(v))} for k, v in diffs.items() if v}}
-
-
-def _cache(bank, interp, step: float):
-    from .interpolator import VelocityCache
-
-    cache = VelocityCache(step)
-    cache.add(bank, interp.predict)
-    return cache
 
 
 def run_bench(opts: BenchOptions, *, echo: Callable[[str], None] = print) -> dict:
@@ -281,9 +234,6 @@ def run_bench(opts: BenchOptions, *, echo: Callable[[str], None] = print) -> dic
             r["avg_rmse"] = float(np.mean(list(r["rmse"].values())))
             lo, hi, _ = _test_split(banks, test[0])[objects[0]]
             r["latency"] = _latency(lambda: interp.interpolate(lo, hi, test[0]), opts.repeats)
-            if method in opts.cached and method != "linear":
-                echo(f"{method}: building velocity caches (grid {opts.grid_step} m/s)")
-                r["cache"] = _cache_report(interp, banks, test, opts)
             echo(f"{method}: continuity and range checks through the data-driven model")
             r["continuity"] = _continuity_and_range(method, interp, opts.dataset, opts, objects, Path(tmpdir))
             echo(f"{method}: average test RMSE {r['avg_rmse']:.4f} g, latency median {r['latency']['median_ms']:.3f} ms")

@@ -1,14 +1,21 @@
 """Checkpoints: weights as safetensors plus a small JSON with configuration and normalisation.
 
 A checkpoint directory holds ``model.safetensors`` + ``model.json`` (the best
-weights by validation loss) and, while training, ``resume.safetensors`` +
-``resume.json`` (last weights, Adam state and RNG state, to continue a run).
-Nothing is pickled. Every file is written to a temporary file in the same
+weights by validation loss), ``model.table.npz`` (the network's velocity table for
+every object of its dataset, see :mod:`hapticfx.interpolators.table`) and, while
+training, ``resume.safetensors`` + ``resume.json`` (last weights, Adam state and RNG
+state, to continue a run). The JSON records the SHA-256 of its weights; the table
+records the same digest, so a table or JSON that does not belong to the weights is
+refused. Nothing is pickled. Every file is written to a temporary file in the same
 directory and moved into place.
+
+Version 2: the network outputs a residual over the linear blend of the neighbours
+(version 1 networks predicted the profile itself and are refused).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -18,7 +25,7 @@ from hapticfx.atomic import atomic_path
 from hapticfx.data.dataset import read_versioned_json
 
 FORMAT = "hapticfx-neural-checkpoint"
-VERSION = 1
+VERSION = 2
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 
 
@@ -27,15 +34,28 @@ def _atomic_write(path: Path, write) -> None:
         write(tmp)
 
 
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 def save(path: Path, tensors: dict, meta: dict) -> None:
-    """Write ``path`` (``.safetensors``) and its ``.json`` sidecar atomically."""
+    """Write ``path`` (``.safetensors``) and its ``.json`` sidecar (with the weights' SHA-256) atomically."""
     from safetensors.torch import save_file
 
     path = Path(path)
     tensors = {k: v.detach().contiguous().cpu() for k, v in tensors.items()}
     _atomic_write(path, lambda tmp: save_file(tensors, tmp))
-    _atomic_write(path.with_suffix(".json"),
-                  lambda tmp: Path(tmp).write_text(json.dumps({"format": FORMAT, "version": VERSION, **meta}, indent=2) + "\n"))
+    meta = {"format": FORMAT, "version": VERSION, **meta, "weights_sha256": file_sha256(path)}
+    _atomic_write(path.with_suffix(".json"), lambda tmp: Path(tmp).write_text(json.dumps(meta, indent=2) + "\n"))
+
+
+def table_path(weights: Path) -> Path:
+    """Where the velocity table of the weights ``weights`` (``.safetensors``) lives."""
+    return Path(weights).with_suffix(".table.npz")
 
 
 def resolve(ref: str | os.PathLike) -> Path:
@@ -53,13 +73,26 @@ def read_meta(path: Path) -> dict:
     if not Path(path).is_file() or not meta_file.is_file():
         raise CheckpointError(f"{path}: checkpoint not found (needs {Path(path).name} and {meta_file.name}); "
                               "train one with `hapticfx train CONFIG.yaml`")
-    return read_versioned_json(meta_file, format=FORMAT, version=VERSION, error=CheckpointError)
+    try:
+        meta = read_versioned_json(meta_file, format=FORMAT, version=VERSION, error=CheckpointError)
+    except CheckpointError as exc:
+        if "format version 1;" in str(exc):
+            raise CheckpointError(f"{exc} (version 1 networks predicted profiles, not residuals over the linear "
+                                  "blend); retrain with `hapticfx train CONFIG.yaml`") from None
+        raise
+    if not isinstance(meta.get("weights_sha256"), str):
+        raise CheckpointError(f"{meta_file}: no weights_sha256; not written by `hapticfx train`")
+    return meta
 
 
-def load_tensors(path: Path) -> dict:
+def load_tensors(path: Path, *, sha256: str | None = None) -> dict:
+    """The tensors of ``path``; with ``sha256``, refused unless the file has that digest."""
     from safetensors import SafetensorError
     from safetensors.torch import load_file
 
+    if sha256 is not None and Path(path).is_file() and file_sha256(path) != sha256:
+        raise CheckpointError(f"{path}: the weights do not match {Path(path).with_suffix('.json').name} (SHA-256 "
+                              "differs): the two files were not written together")
     try:
         return load_file(str(path))
     except (SafetensorError, OSError, ValueError) as exc:

@@ -9,6 +9,8 @@ import typer
 
 from hapticfx.errors import EffectError
 
+from . import checkpoint
+
 
 def train(
     config: Path = typer.Argument(..., help="Training configuration YAML (see docs/neural.md)."),
@@ -19,10 +21,12 @@ def train(
     release: bool = typer.Option(False, "--release", help="At the end, delete the resume state (Adam moments, RNG) "
                                  "and keep only model.safetensors + model.json, e.g. for shipping weights."),
 ):
-    """Train a neural interpolator on a dataset; writes model.safetensors + model.json."""
+    """Train a neural interpolator on a dataset; writes model.safetensors, model.json and its velocity table."""
     from .config import load_config
+    from .interpolator import require_torch
     from .run import train_from_config
 
+    require_torch("`hapticfx train`")
     cfg = load_config(config)
     if out is not None:
         cfg.out = str(out)
@@ -35,7 +39,32 @@ def train(
     t = meta["training"]
     typer.echo(f"{cfg.interpolator}: {t['epochs_run']} epochs in {t['train_time_s']:.1f} s, best epoch {t['best_epoch']} "
                f"(validation RMSE {t['best_val_rmse_normalised']:.4f} normalised), {meta['parameters']:,} parameters")
-    typer.echo(f"wrote {path}")
+    typer.echo(f"wrote {path} and its velocity table {checkpoint.table_path(path).name}")
+
+
+def table(
+    weights: Path = typer.Argument(..., help="Checkpoint directory or .safetensors file."),
+    dataset: Optional[str] = typer.Option(None, "--dataset", "-d", help="Dataset path or builtin:NAME (default: "
+                                          "the one the checkpoint was trained on)."),
+):
+    """Write the velocity table of a trained interpolator: what effects play without torch.
+
+    `hapticfx train` writes it already; run this after changing the dataset's banks, or for weights
+    trained elsewhere. The table covers every object of the dataset.
+    """
+    from hapticfx.data.dataset import open_dataset
+
+    from .interpolator import require_torch
+    from .tables import write_table
+
+    require_torch("`hapticfx table`")
+    path = checkpoint.resolve(weights)
+    meta = checkpoint.read_meta(path)
+    ref = dataset or meta["dataset"].get("ref")
+    if ref is None:
+        raise EffectError(f"{path}: the checkpoint does not say where its dataset is; give --dataset")
+    written = write_table(path, open_dataset(ref), progress=typer.echo)
+    typer.echo(f"wrote {written}")
 
 
 def _floats(text: Optional[str], name: str) -> list[float] | None:
@@ -84,5 +113,6 @@ def register(app: typer.Typer, bench: typer.Typer) -> None:
     from .bench_threads import threads
 
     app.command("train")(train)
+    app.command("table")(table)
     bench.command("interpolators")(interpolators)
     bench.command("threads")(threads)

@@ -1,4 +1,10 @@
-"""The neural interpolators as hapticfx components (one class per architecture)."""
+"""The neural interpolators as hapticfx components (one class per architecture).
+
+At play time a trained network is served from its velocity table (numbers next to
+the weights, :mod:`hapticfx.interpolators.table`): no torch import. torch runs only
+to train, to build a table, or when an effect asks for direct inference
+(``cache: false``).
+"""
 
 from __future__ import annotations
 
@@ -9,60 +15,21 @@ from typing import ClassVar
 import numpy as np
 
 from hapticfx.errors import CheckpointError, SignalError
-from hapticfx.interfaces import Interpolator, Profile
+from hapticfx.interfaces import Interpolator, Profile, TrainingData
+from hapticfx.interpolators.table import VelocityTable
 from hapticfx.signal import valid_number, valid_signal, valid_velocity
 
 from . import checkpoint
 from .samples import stack_triples
 
-DEFAULT_GRID_STEP = 0.01
 
-
-class VelocityCache:
-    """Profiles precomputed on a velocity grid inside each recorded interval, blended linearly.
-
-    Grid: for an interval ``(v_i, v_{i+1})`` the nodes are ``v_i + k * step``
-    strictly inside it, plus the two ends, which hold the *recorded* profiles, so
-    the cached profile is continuous at every recorded velocity.
-    """
-
-    def __init__(self, step: float):
-        self.step = step
-        self.intervals: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-
-    @staticmethod
-    def _key(lower: Profile, upper: Profile) -> tuple:
-        # Objects of one dataset share their recorded velocities: the neighbours' samples
-        # tell the objects apart.
-        return (lower.velocity, upper.velocity, hash(lower.samples.tobytes()), hash(upper.samples.tobytes()))
-
-    def add(self, bank, predict_fn) -> None:
-        """Precompute the grid of every recorded interval of ``bank``."""
-        rows, spans = [], []
-        for i in range(len(bank) - 1):
-            lo, hi = bank[i], bank[i + 1]
-            inner = lo.velocity + self.step * np.arange(1, int(np.ceil((hi.velocity - lo.velocity) / self.step)))
-            inner = inner[inner < hi.velocity - 1e-9]
-            spans.append((lo, hi, inner, len(rows)))
-            rows += [(lo, hi, float(v), None) for v in inner]
-        pred = predict_fn(stack_triples(rows, [bank.object] * len(rows))) if rows else np.zeros((0, bank.n_samples))
-        for lo, hi, inner, start in spans:
-            nodes = np.concatenate([[lo.velocity], inner, [hi.velocity]])
-            profiles = np.vstack([lo.samples[None], pred[start:start + len(inner)], hi.samples[None]])
-            self.intervals[self._key(lo, hi)] = (nodes, profiles)
-
-    @property
-    def n_profiles(self) -> int:
-        return sum(len(n) for n, _ in self.intervals.values())
-
-    def lookup(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray | None:
-        entry = self.intervals.get(self._key(lower, upper))
-        if entry is None:
-            return None
-        nodes, profiles = entry
-        j = int(np.clip(np.searchsorted(nodes, velocity, side="right") - 1, 0, len(nodes) - 2))
-        w = (velocity - nodes[j]) / (nodes[j + 1] - nodes[j])
-        return (1.0 - w) * profiles[j] + w * profiles[j + 1]
+def require_torch(why: str) -> None:
+    """Import torch or say, in one line, how to install it."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        raise CheckpointError(f"{why} needs torch, which is not installed: "
+                              "pip install 'hapticfx-neural[train]'") from None
 
 
 class NeuralInterpolator(Interpolator):
@@ -70,92 +37,115 @@ class NeuralInterpolator(Interpolator):
 
     Options (effect ``interpolator_options``): ``weights`` (checkpoint directory or
     ``.safetensors`` file; default: the plugin's shipped weights for the effect's
-    dataset and reducer), ``cache`` (precompute a velocity grid at load, default
-    false), ``grid_step_mps`` (grid spacing, default 0.01), ``threads`` (torch
-    threads, default 2), ``config`` (training YAML used by :meth:`fit`).
+    dataset and reducer), ``cache`` (default true: serve the velocity table written
+    next to the weights; false: run the network for every impact, which needs
+    torch), ``threads`` (torch threads for direct inference, default 1: on a shared
+    2-core machine two threads spin-wait for each other), ``config`` (training YAML
+    used by :meth:`fit`).
     """
 
     arch: ClassVar[str]
 
-    def __init__(self, *, weights: str | os.PathLike | None = None, cache: bool = False,
-                 grid_step_mps: float = DEFAULT_GRID_STEP, threads: int = 1, config: str | os.PathLike | None = None):
+    def __init__(self, *, weights: str | os.PathLike | None = None, cache: bool = True, threads: int = 1,
+                 config: str | os.PathLike | None = None):
         if not isinstance(cache, bool):
             raise SignalError(f"interpolator_options.cache must be true or false, got {cache!r}")
         self.weights = None if weights is None else Path(weights).expanduser()
-        self.use_cache = cache
-        self.grid_step = valid_number(grid_step_mps, name="interpolator_options.grid_step_mps", minimum=1e-4, maximum=1.0)
+        self.use_table = cache
         self.threads = int(valid_number(threads, name="interpolator_options.threads", minimum=1, maximum=256))
         self.config = config
         self.net = None
         self.meta: dict | None = None
-        self.cache: VelocityCache | None = None
+        self.table: VelocityTable | None = None
 
     # -- learning -------------------------------------------------------------------
-    def fit(self, bank, **options) -> dict:
-        """Train on one bank: every interior recorded velocity is a target (options override the config)."""
+    def fit(self, data: TrainingData, **options) -> dict:
+        """Train on every object of ``data`` (one network, as in the paper); options override the config.
+
+        Targets: ``data.targets`` when given, else every interior recorded velocity of each bank.
+        """
+        require_torch(f"training {self.arch}")
         from .config import config_from_mapping, load_config
+        from .samples import concat, triples_from_bank
         from .training import train_network
-        from .samples import triples_from_bank
 
         cfg = load_config(self.config) if self.config else config_from_mapping(
-            {"interpolator": self.arch, "dataset": "<bank>", "reducer": bank.reducer})
-        cfg.training.update(options.pop("training", {}))
-        cfg.model.update(options.pop("model", {}))
-        targets = [float(v) for v in bank.velocities[1:-1]]
-        data = triples_from_bank(bank, targets)
-        self.net, self.meta = train_network(self.arch, cfg.model, cfg.training, data, progress=options.get("progress", False),
-                                            dataset_meta={"name": options.get("dataset", "<bank>"),
-                                                          "reducer": bank.reducer, "objects": [bank.object],
-                                                          "targets": {bank.object: targets}})
+            {"interpolator": self.arch, "dataset": data.dataset, "reducer": data.reducer})
+        cfg.training.update(options.get("training") or {})
+        cfg.model.update(options.get("model") or {})
+        targets = {obj: [float(v) for v in (data.targets or {}).get(obj, bank.velocities[1:-1])]
+                   for obj, bank in data.banks.items()}
+        triples = concat([triples_from_bank(data.banks[obj], vs) for obj, vs in targets.items() if vs])
+        self.net, self.meta = train_network(
+            self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
+            label=options.get("label"), dataset_meta={"name": data.dataset, "reducer": data.reducer,
+                                                      "objects": list(data.banks), "targets": targets})
+        self.table = None
         return {k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")}
 
+    # -- loading ----------------------------------------------------------------------
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
-        """Load weights (given, or the shipped defaults for this dataset and reducer) and fill the cache.
+        """Serve ``bank`` from the weights' velocity table (or load the network for ``cache: false``).
 
         A relative ``weights`` path is relative to ``base_dir`` (the effect file's directory).
         """
-        if self.weights is not None and base_dir is not None and not self.weights.is_absolute():
-            self.weights = Path(base_dir) / self.weights
-        if self.net is None:
-            name = dataset.name if dataset is not None else None
-            if self.weights is None:
-                found = checkpoint.default_weights(name, bank.reducer, self.arch) if name else None
-                if found is None:
-                    raise CheckpointError(
-                        f"no trained {self.arch!r} weights ship for dataset {name!r} with reducer {bank.reducer!r}; "
-                        f"train them with `hapticfx train CONFIG.yaml` (interpolator: {self.arch}) and set "
-                        "interpolator_options: {weights: PATH}")
-                self.load(found, dataset=name, reducer=bank.reducer)
-            else:
-                self.load(self.weights, dataset=name, reducer=bank.reducer)
-        if self.meta["n_samples"] != bank.n_samples:
-            raise CheckpointError(f"{self.arch} weights expect profiles of {self.meta['n_samples']} samples; "
-                                  f"bank {bank.object!r} has {bank.n_samples}")
-        if self.use_cache:
-            if self.cache is None:
-                self.cache = VelocityCache(self.grid_step)
-            self.cache.add(bank, self.predict)
+        if self.weights is None and self.net is not None:
+            return  # trained by fit() in this process and not saved: served by direct inference
+        name = dataset.name if dataset is not None else None
+        path = self._weights_path(bank, name, base_dir)
+        if not self.use_table:
+            if self.net is None:
+                self.load(path, dataset=name, reducer=bank.reducer)
+            checkpoint.check_compatible(self.meta, path, arch=self.arch, n_samples=bank.n_samples)
+            return
+        if self.table is None:
+            meta = checkpoint.read_meta(path)
+            checkpoint.check_compatible(meta, path, arch=self.arch, n_samples=bank.n_samples, dataset=name,
+                                        reducer=bank.reducer)
+            table = VelocityTable.load(checkpoint.table_path(path))
+            table.check_source(self.arch, {"weights_sha256": meta["weights_sha256"]}, rebuild=_rebuild_hint(path))
+            self.table, self.meta = table, meta
+        self.table.attach(bank, rebuild=_rebuild_hint(path))
+
+    def _weights_path(self, bank, dataset_name: str | None, base_dir) -> Path:
+        if self.weights is not None:
+            if base_dir is not None and not self.weights.is_absolute():
+                self.weights = Path(base_dir) / self.weights
+            return checkpoint.resolve(self.weights)
+        found = checkpoint.default_weights(dataset_name, bank.reducer, self.arch) if dataset_name else None
+        if found is None:
+            raise CheckpointError(
+                f"no trained {self.arch!r} weights ship for dataset {dataset_name!r} with reducer {bank.reducer!r}; "
+                f"train them with `hapticfx train CONFIG.yaml` (interpolator: {self.arch}) and set "
+                "interpolator_options: {weights: PATH}")
+        self.weights = found
+        return found
 
     def save(self, path: Path) -> None:
         if self.net is None:
             raise CheckpointError(f"{self.arch}: nothing to save (not trained or loaded)")
-        meta = {k: v for k, v in self.meta.items() if k not in ("format", "version")}
+        meta = {k: v for k, v in self.meta.items() if k not in ("format", "version", "weights_sha256")}
         checkpoint.save(checkpoint.resolve(path), self.net.state_dict(), meta)
 
     def load(self, path: Path, *, dataset: str | None = None, reducer: str | None = None) -> None:
+        """Load the network itself (torch) for direct inference, in float64 like its table."""
+        require_torch(f"direct {self.arch} inference (interpolator_options.cache: false)")
         import torch
 
         from .training import load_network
 
         torch.set_num_threads(self.threads)
-        self.net, self.meta = load_network(checkpoint.resolve(path), arch=self.arch, dataset=dataset, reducer=reducer)
+        net, self.meta = load_network(checkpoint.resolve(path), arch=self.arch, dataset=dataset, reducer=reducer)
+        self.net = net.double()
 
     # -- inference --------------------------------------------------------------------
     def predict(self, triples) -> np.ndarray:
         from .training import predict
 
         if self.net is None:
-            raise CheckpointError(f"{self.arch}: no weights loaded; call prepare() or load() first")
+            if self.weights is None:
+                raise CheckpointError(f"{self.arch}: no weights loaded; call prepare() or load() first")
+            self.load(self.weights)
         return predict(self.net, self.meta, triples)
 
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
@@ -166,11 +156,20 @@ class NeuralInterpolator(Interpolator):
             raise SignalError(f"velocity {v} m/s must lie between the neighbours {lo.velocity} and {hi.velocity} m/s")
         if lo.samples.shape != hi.samples.shape:
             raise SignalError(f"neighbour profiles differ in length: {lo.samples.shape} vs {hi.samples.shape}")
-        if self.cache is not None:
-            hit = self.cache.lookup(lo, hi, v)
+        if self.table is not None:
+            hit = self.table.lookup(lo, hi, v)
             if hit is not None:
                 return hit
         return self.predict(stack_triples([(lo, hi, v, None)], ["?"]))[0]
+
+    def describe(self) -> dict:
+        if self.table is not None:
+            return {"served_from": self.table.describe()}
+        return {"served_from": f"direct inference ({self.weights})"}
+
+
+def _rebuild_hint(weights: Path) -> str:
+    return f"rebuild it with `hapticfx table {weights.parent}`"
 
 
 class ConvBiLSTMInterpolator(NeuralInterpolator):

@@ -2,8 +2,10 @@
 
 Every network maps ``x (B, T, 2, S)`` - the lower and upper neighbour profiles
 cut into ``T`` recurrent steps of ``S`` samples - and ``vel (B, 2)`` - the
-velocity features - to ``(B, T, S)``. The velocity enters only the final fully
+velocity features - to a residual ``(B, T, S)`` over the linear blend of the two
+neighbours (:func:`blend_plus_residual`). The velocity enters only the final fully
 connected layer, concatenated to each step's decoder output (paper Sect. 4.2).
+That layer starts at zero, so an untrained network is the linear interpolator.
 """
 
 from __future__ import annotations
@@ -135,16 +137,26 @@ class EncoderDecoder(nn.Module):
         return self.fc(torch.cat([h, vel[:, None, :].expand(b, t, 2)], dim=-1))
 
 
+def blend_plus_residual(x: torch.Tensor, vel: torch.Tensor, residual: torch.Tensor) -> torch.Tensor:
+    """The normalised profile ``(B, T, S)``: linear blend of the neighbours in ``x`` plus ``4 w (1 - w) r``."""
+    w = vel[:, 0].reshape(-1, 1, 1)
+    return (1.0 - w) * x[:, :, 0] + w * x[:, :, 1] + 4.0 * w * (1.0 - w) * residual
+
+
 def build_network(arch: str, model: dict, *, width: int, steps: int) -> nn.Module:
     """The network of interpolator ``arch`` with the sizes in ``model`` (see :mod:`.config`)."""
     if arch in ("lstm", "bilstm"):
-        return SequenceRegressor(width, sizes=list(model["sizes"]), bidirectional=arch == "bilstm",
-                                 dropout=model["dropout"])
-    encoder = {"convbilstm": ("convlstm", True, True), "convlstm-ed": ("convlstm", False, False),
-               "bilstm-ed": ("lstm", True, True), "lstm-sae": ("lstm", False, False)}[arch]
-    return EncoderDecoder(
-        width, steps, encoder=encoder[0], encoder_sizes=list(model["encoder_sizes"]),
-        encoder_bidirectional=encoder[1], decoder_sizes=list(model["decoder_sizes"]),
-        decoder_bidirectional=encoder[2], encoder_dropout=model["encoder_dropout"],
-        decoder_dropout=model["decoder_dropout"], kernel=model.get("kernel", 3),
-    )
+        net = SequenceRegressor(width, sizes=list(model["sizes"]), bidirectional=arch == "bilstm",
+                                dropout=model["dropout"])
+    else:
+        encoder = {"convbilstm": ("convlstm", True, True), "convlstm-ed": ("convlstm", False, False),
+                   "bilstm-ed": ("lstm", True, True), "lstm-sae": ("lstm", False, False)}[arch]
+        net = EncoderDecoder(
+            width, steps, encoder=encoder[0], encoder_sizes=list(model["encoder_sizes"]),
+            encoder_bidirectional=encoder[1], decoder_sizes=list(model["decoder_sizes"]),
+            decoder_bidirectional=encoder[2], encoder_dropout=model["encoder_dropout"],
+            decoder_dropout=model["decoder_dropout"], kernel=model.get("kernel", 3),
+        )
+    nn.init.zeros_(net.fc.weight)
+    nn.init.zeros_(net.fc.bias)
+    return net

@@ -34,8 +34,16 @@ def dataset_triples(dataset, reducer: str, objects: list[str], *, train: list[fl
     return concat(parts), targets
 
 
+def dataset_ref(dataset) -> str:
+    """How a checkpoint names its dataset so that `hapticfx table` can open it again."""
+    from hapticfx.data.dataset import BUILTIN_DIR, BUILTIN_PREFIX
+
+    return BUILTIN_PREFIX + dataset.path.name if dataset.path.parent == BUILTIN_DIR else str(dataset.path.resolve())
+
+
 def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool = True) -> tuple[dict, Path]:
-    """Train the configured interpolator; returns its metadata and the best checkpoint's path."""
+    """Train the configured interpolator and write its velocity table; returns its metadata and weights' path."""
+    from .tables import write_table
     from .training import train_network
 
     dataset = open_dataset(cfg.dataset, relative_to=Path(cfg.source).parent if cfg.source != "<config>" else None)
@@ -43,8 +51,10 @@ def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool 
     data, targets = dataset_triples(dataset, cfg.reducer, objects, train=cfg.train_velocities,
                                     holdout=cfg.holdout_velocities)
     out = cfg.out_dir(dataset.name)
-    meta_ds = {"name": dataset.name, "reducer": cfg.reducer, "objects": list(objects), "targets": targets,
-               "holdout": list(cfg.holdout_velocities)}
+    meta_ds = {"name": dataset.name, "ref": dataset_ref(dataset), "reducer": cfg.reducer, "objects": list(objects),
+               "targets": targets, "holdout": list(cfg.holdout_velocities)}
     _, meta = train_network(cfg.interpolator, cfg.model, cfg.training, data, dataset_meta=meta_ds, out=out,
                             resume=resume, progress=progress, label=f"train {cfg.interpolator}")
-    return meta, out / "model.safetensors"
+    weights = out / "model.safetensors"
+    write_table(weights, dataset)
+    return meta, weights

@@ -5,14 +5,20 @@ A triple is (lower neighbour, upper neighbour, velocity) -> target profile.
 Input encoding, shared by training and inference:
 
 - Profiles are divided by ``scale = max(|lower|, |upper|)`` (the larger peak of the
-  two neighbours, per impact); the prediction is multiplied back by it. The
-  network therefore sees shapes in [-1, 1] whatever the object or unit.
+  two neighbours, per impact). The network therefore sees shapes in [-1, 1]
+  whatever the object or unit.
+- The network's output is the residual ``r`` of the core's endpoint-consistent form
+  (:mod:`hapticfx.interpolators.residual`): the profile is the linear blend of the
+  neighbours plus ``4 w (1 - w) * scale * r``, so a neighbour comes back exactly at its
+  own velocity and the prediction is continuous there.
 - The ``N``-sample profiles are cut into ``steps`` recurrent steps of ``N / steps``
   consecutive samples; each step carries the lower and upper neighbour's chunk
   (two channels, lower first).
 - The velocity enters the final dense layer as two features: its relative
   position ``w = (v - v_lower) / (v_upper - v_lower)`` in [0, 1] and its absolute
   value standardised with the training velocities' mean and standard deviation.
+  The residual is therefore affine in velocity within a recorded interval, and a
+  velocity table needs only each interval's two ends.
 """
 
 from __future__ import annotations
@@ -23,8 +29,7 @@ import numpy as np
 
 from hapticfx.errors import DatasetError
 from hapticfx.interfaces import Profile
-
-_EPS = 1e-9
+from hapticfx.interpolators.residual import compose, scale as neighbour_scale, weight
 
 
 @dataclass
@@ -79,24 +84,21 @@ def concat(parts: list[Triples]) -> Triples:
 
 
 def encode(t: Triples, *, steps: int, v_mean: float, v_std: float):
-    """Network inputs ``x (n, steps, 2, N/steps)``, ``vel (n, 2)``, per-impact ``scale (n,)`` and ``y`` (or None)."""
+    """Network inputs ``x (n, steps, 2, N/steps)``, ``vel (n, 2)`` and the normalised target ``y`` (or None)."""
     n, length = t.lower.shape
     if length % steps:
         raise DatasetError(f"profiles of {length} samples cannot be cut into {steps} equal steps; "
                            "choose model.steps dividing the profile length")
-    scale = np.maximum(np.abs(t.lower).max(axis=1), np.abs(t.upper).max(axis=1))
-    scale = np.where(scale > _EPS, scale, 1.0)
+    scale = neighbour_scale(t.lower, t.upper)
     width = length // steps
     pair = np.stack([t.lower, t.upper], axis=1) / scale[:, None, None]           # (n, 2, N)
     x = pair.reshape(n, 2, steps, width).transpose(0, 2, 1, 3)                    # (n, T, 2, S)
-    gap = t.v_hi - t.v_lo
-    w = np.clip((t.v - t.v_lo) / np.where(gap > 0, gap, 1.0), 0.0, 1.0)
-    vel = np.stack([w, (t.v - v_mean) / v_std], axis=1)
+    vel = np.stack([weight(t.v_lo, t.v_hi, t.v), (t.v - v_mean) / v_std], axis=1)
     y = None if t.target is None else (t.target / scale[:, None]).reshape(n, steps, width)
-    return x.astype(np.float32), vel.astype(np.float32), scale, None if y is None else y.astype(np.float32)
+    return x.astype(np.float32), vel.astype(np.float32), None if y is None else y.astype(np.float32)
 
 
-def decode(pred: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """Network output ``(n, T, S)`` back to profiles ``(n, N)`` in the bank's units (float64)."""
-    n = pred.shape[0]
-    return pred.reshape(n, -1).astype(np.float64) * scale[:, None]
+def decode(t: Triples, residual: np.ndarray) -> np.ndarray:
+    """Profiles ``(n, N)`` in the bank's units (float64) from the network's residual ``(n, T, S)``."""
+    r = np.asarray(residual, dtype=np.float64).reshape(len(t), -1)
+    return compose(t.lower, t.upper, weight(t.v_lo, t.v_hi, t.v), r)

@@ -15,7 +15,7 @@ import torch
 from hapticfx.errors import CheckpointError, DatasetError
 
 from . import checkpoint
-from .networks import build_network
+from .networks import blend_plus_residual, build_network
 from .samples import Triples, decode, encode
 
 
@@ -79,13 +79,17 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
     v_mean = float(np.mean(data.v[tr_idx]))
     v_std = float(np.std(data.v[tr_idx])) or 1.0
     def enc(t: Triples):
-        x, vel, _, y = encode(t, steps=model["steps"], v_mean=v_mean, v_std=v_std)
+        x, vel, y = encode(t, steps=model["steps"], v_mean=v_mean, v_std=v_std)
         return torch.from_numpy(x), torch.from_numpy(vel), torch.from_numpy(y)
+
+    def loss_of(x, vel, y):
+        return _rmse(blend_plus_residual(x, vel, net(x, vel)), y)
 
     xt, vt, yt = enc(data.subset(tr_idx))
     xv, vv, yv = enc(data.subset(va_idx)) if len(va_idx) else (None, None, None)
     meta = {
         "interpolator": arch, "model": copy.deepcopy(model), "n_samples": int(n_samples), "steps": int(model["steps"]),
+        "output": "residual over the linear blend (hapticfx.interpolators.residual)",
         "normalisation": {"profile": "divided by max(|lower|, |upper|) per impact",
                           "velocity_features": ["(v - v_lower) / (v_upper - v_lower)", "(v - velocity_mean) / velocity_std"],
                           "velocity_mean": v_mean, "velocity_std": v_std},
@@ -110,14 +114,14 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
         for start in range(0, len(perm), bs):
             b = perm[start:start + bs]
             opt.zero_grad()
-            loss = _rmse(net(xt[b], vt[b]), yt[b])
+            loss = loss_of(xt[b], vt[b], yt[b])
             loss.backward()
             opt.step()
             total += loss.item() ** 2 * len(b)
         train_rmse = math.sqrt(total / len(perm))
         net.eval()
         with torch.no_grad():
-            val_rmse = float(_rmse(net(xv, vv), yv)) if xv is not None else train_rmse
+            val_rmse = float(loss_of(xv, vv, yv)) if xv is not None else train_rmse
         state["epoch"] += 1
         state["history"].append([train_rmse, val_rmse])
         if val_rmse < state["best"] - 1e-7:
@@ -175,7 +179,7 @@ def _resume(out: Path | None, net, opt, gen, meta: dict) -> tuple[dict, dict]:
     changed = [k for k in meta["training"] if k not in ("epochs", "patience") and old["training"].get(k) != meta["training"][k]]
     if changed:
         raise CheckpointError(f"{path}: cannot resume: training.{changed[0]} differs from the checkpoint")
-    tensors = checkpoint.load_tensors(path)
+    tensors = checkpoint.load_tensors(path, sha256=old["weights_sha256"])
     net.load_state_dict({k[4:]: v for k, v in tensors.items() if k.startswith("net.")})
     _load_optimizer(opt, tensors, old["resume"]["param_groups"])
     torch.set_rng_state(tensors["rng.torch"])
@@ -192,7 +196,7 @@ def load_network(path: Path, *, arch: str, n_samples: int | None = None, dataset
     meta = checkpoint.read_meta(path)
     checkpoint.check_compatible(meta, path, arch=arch, n_samples=n_samples, dataset=dataset, reducer=reducer)
     net = make_network(arch, meta["model"], int(meta["n_samples"]))
-    tensors = checkpoint.load_tensors(path)
+    tensors = checkpoint.load_tensors(path, sha256=meta["weights_sha256"])
     try:
         net.load_state_dict(tensors)
     except RuntimeError as exc:
@@ -203,12 +207,20 @@ def load_network(path: Path, *, arch: str, n_samples: int | None = None, dataset
     return net, meta
 
 
-def predict(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
-    """Profiles ``(n, N)`` (float64, bank units) predicted for ``data``."""
+def predict_residual(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
+    """The network's residual ``(n, N)`` for ``data``, computed in the network's own precision."""
     norm = meta["normalisation"]
-    x, vel, scale, _ = encode(data, steps=int(meta["steps"]), v_mean=norm["velocity_mean"], v_std=norm["velocity_std"])
+    x, vel, _ = encode(data, steps=int(meta["steps"]), v_mean=norm["velocity_mean"], v_std=norm["velocity_std"])
+    dtype = next(net.parameters()).dtype
     outs = []
     with torch.inference_mode():
         for s in range(0, len(x), batch):
-            outs.append(net(torch.from_numpy(x[s:s + batch]), torch.from_numpy(vel[s:s + batch])).numpy())
-    return decode(np.concatenate(outs), scale)
+            xb = torch.from_numpy(x[s:s + batch]).to(dtype)
+            vb = torch.from_numpy(vel[s:s + batch]).to(dtype)
+            outs.append(net(xb, vb).double().numpy())
+    return np.concatenate(outs).reshape(len(data), -1)
+
+
+def predict(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
+    """Profiles ``(n, N)`` (float64, bank units) predicted for ``data``."""
+    return decode(data, predict_residual(net, meta, data, batch=batch))

@@ -102,7 +102,25 @@ def test_checkpoint_whose_weights_do_not_fit_its_description_is_refused(tmp_path
     with pytest.raises(CheckpointError, match="weights do not fit the convbilstm network"):
         load_network(tmp_path / "model.safetensors", arch="convbilstm")
     (tmp_path / "model.safetensors").write_bytes(b"not safetensors")
+    with pytest.raises(CheckpointError, match="the weights do not match model.json"):
+        load_network(tmp_path / "model.safetensors", arch="convbilstm")
+    meta["model"]["decoder_sizes"] = TINY_BY_ARCH["convbilstm"]["decoder_sizes"]
+    meta["weights_sha256"] = checkpoint.file_sha256(tmp_path / "model.safetensors")
+    (tmp_path / "model.json").write_text(json.dumps(meta))
     with pytest.raises(CheckpointError, match="corrupt or unreadable"):
+        load_network(tmp_path / "model.safetensors", arch="convbilstm")
+
+
+def test_version_1_checkpoints_are_refused_with_the_reason(tmp_path, trained):
+    import shutil
+
+    from hapticfx_neural.training import load_network
+
+    shutil.copy(trained, tmp_path / "model.safetensors")
+    meta = json.loads(trained.with_suffix(".json").read_text())
+    meta["version"] = 1
+    (tmp_path / "model.json").write_text(json.dumps(meta))
+    with pytest.raises(CheckpointError, match=r"format version 1; .*residuals over the linear blend.*hapticfx train"):
         load_network(tmp_path / "model.safetensors", arch="convbilstm")
 
 
@@ -143,3 +161,18 @@ def test_steps_must_divide_the_profile_length(tmp_path, syn_dataset):
 
 def test_tiny_config_table_covers_every_architecture():
     assert set(TINY_BY_ARCH) == set(ARCHS)
+
+
+@pytest.mark.parametrize("arch", ARCHS)
+def test_an_untrained_network_is_the_linear_interpolator(arch):
+    from hapticfx.interpolators.linear import LinearInterpolator
+    from hapticfx.interfaces import Profile
+    from hapticfx_neural.samples import stack_triples
+    from hapticfx_neural.training import make_network, predict
+
+    rng = np.random.default_rng(4)
+    lo, hi = Profile(3.0, rng.standard_normal(100)), Profile(3.5, rng.standard_normal(100))
+    net = make_network(arch, {**MODEL_DEFAULTS[arch], **TINY_BY_ARCH[arch]}, 100)
+    meta = {"steps": TINY_BY_ARCH[arch]["steps"], "normalisation": {"velocity_mean": 3.0, "velocity_std": 1.0}}
+    out = predict(net, meta, stack_triples([(lo, hi, 3.2, None)], ["x"]))[0]
+    assert np.allclose(out, LinearInterpolator().interpolate(lo, hi, 3.2), rtol=0, atol=1e-15)
