@@ -15,6 +15,7 @@ def register_models(register):
 @hookimpl
 def register_interpolators(register):
     register("linear", lazy("hapticfx.interpolators.linear:LinearInterpolator"))
+    register("ensemble", lazy("hapticfx.interpolators.ensemble:EnsembleInterpolator"))
 
 
 @hookimpl

@@ -2,8 +2,10 @@
 
 :func:`build_dataset` preprocesses every drop (:mod:`hapticfx.data.preprocess`),
 picks a representative drop per velocity (:mod:`hapticfx.data.representative`,
-honouring manual overrides), and writes the raw recordings plus one bank per
-reducer atomically with :class:`~hapticfx.data.dataset.DatasetWriter`.
+honouring manual overrides), and writes the raw recordings, one bank per reducer
+and the fitted ``ensemble`` interpolator's table per reducer
+(:mod:`hapticfx.interpolators.ensemble`) atomically with
+:class:`~hapticfx.data.dataset.DatasetWriter`.
 """
 
 from __future__ import annotations
@@ -15,9 +17,12 @@ from typing import Callable, Iterable
 import numpy as np
 
 from ..errors import DatasetError, HapticfxError
+from ..interfaces import TrainingData
+from ..interpolators.ensemble import fit_table, table_path
 from ..objects import ObjectInfo
 from ..signal import valid_number, valid_signal
 from . import representative
+from .bank import ProfileBank
 from .dataset import DatasetWriter
 from .preprocess import Preprocessing, preprocess
 
@@ -91,13 +96,17 @@ def build_dataset(
         preprocessing=params.to_dict(), representative_method=representative.METHOD,
     ) as writer:
         seen: set[str] = set()
+        fits: dict[str, list] = {rname: [] for rname, _ in reducer_objs}
         for rec in recordings:
             oid = rec.info.id
             if oid in seen:
                 raise DatasetError(f"object {oid!r} given twice")
             seen.add(oid)
             say(f"{oid}: preprocessing {rec.accel_g.shape[0]} velocities x {rec.accel_g.shape[1]} drops")
-            windows = preprocess(rec.accel_g, rate, params=params)
+            # Preprocess what is stored (float32), so that the banks, the fitted tables and
+            # Dataset.windows() all see the same numbers.
+            stored = np.asarray(rec.accel_g, np.float32)
+            windows = preprocess(stored.astype(np.float64), rate, params=params)
             chosen, auto = representative.choose(
                 windows, rec.velocities_mps, rec.representative_overrides, label=f"object {oid!r}"
             )
@@ -114,13 +123,21 @@ def build_dataset(
                     ],
                 },
             )
-            writer.write_raw(oid, rec.velocities_mps, rec.accel_g)
+            writer.write_raw(oid, rec.velocities_mps, stored)
             picked = windows[np.arange(windows.shape[0]), chosen]
             for rname, reducer in reducer_objs:
                 say(f"{oid}: bank {rname}")
-                writer.write_bank(rname, oid, rec.velocities_mps, reducer.reduce(picked), chosen)
+                profiles = reducer.reduce(picked)
+                writer.write_bank(rname, oid, rec.velocities_mps, profiles, chosen)
+                bank = ProfileBank(oid, rname, params.rate_hz, rec.velocities_mps, profiles)
+                fits[rname].append((bank, (rec.velocities_mps, reducer.reduce(windows))))
         if not seen:
             raise DatasetError(f"{out}: no recordings given")
+        for rname, items in fits.items():
+            data = TrainingData({b.object: b for b, _ in items}, rname, name, {b.object: d for b, d in items})
+            table = fit_table(data)
+            say(f"ensemble interpolator ({rname}): trim {table.meta['source']['trim']}")
+            table.save(table_path(writer.tmp, rname))
     say(f"wrote {out}")
     return out
 

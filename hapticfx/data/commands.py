@@ -127,6 +127,18 @@ def pick(
     typer.echo(str(set_representative(Path(dataset), object, velocity, drop, progress=_echo)))
 
 
+def tables(dataset: str = typer.Argument(..., help="Dataset directory (its tables/ folder is rewritten).")):
+    """Fit the ensemble interpolator to a dataset's drops and write its tables (one per reducer).
+
+    `data synth`, `data import`, `data record` and `data pick` write them already; run this for a
+    dataset written by an older hapticfx, so that effects load it without fitting.
+    """
+    from ..interpolators.ensemble import write_tables
+    from .dataset import open_dataset
+
+    write_tables(open_dataset(dataset), progress=_echo)
+
+
 def bench_reducers(
     dataset: str = typer.Option(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
     repeat: int = typer.Option(30, help="Timed repetitions (median and IQR are over these)."),
@@ -178,4 +190,5 @@ def register(bench: typer.Typer, data: typer.Typer) -> None:
     data.command("plot")(plot)
     data.command("info")(info)
     data.command("pick")(pick)
+    data.command("tables")(tables)
     bench.command("reducers")(bench_reducers)

@@ -1,0 +1,183 @@
+"""``ensemble``: the recorded neighbours, drawn halfway toward the centre of all their recorded drops.
+
+A representative profile is one drop: its drop-specific detail (a spike where all
+three axes happen to go negative, a rebound a little early) is noise to a profile
+at another velocity. Every velocity was recorded about ten times, so a robust
+centre of those drops - the per-sample trimmed mean - estimates what any drop at
+that velocity shares. Between two recorded velocities (``w`` from 0 to 1)::
+
+    blend(w)  = (1 - w) L  + w U            (the representatives: the paper's linear baseline)
+    centre(w) = (1 - w) Lc + w Uc           (the neighbours' drop centres)
+    profile   = blend(w) + 4 w (1 - w) (centre(w) - blend(w))
+
+At a recorded velocity the recorded representative comes back exactly; halfway
+the profile is the blend of the centres. In the core's residual form
+(:mod:`hapticfx.interpolators.residual`) the residual is affine in ``w``, so a
+velocity table with the two ends of each interval serves it exactly.
+
+``trim`` (the fraction of drops cut at each end, per sample) is learned: ``fit``
+picks it from :data:`TRIMS` by leave-one-velocity-out on the training data alone
+(mean RMSE against the held-out representative). Datasets written by hapticfx carry
+the fitted table (``tables/ensemble-<reducer>.table.npz``); for others it is fitted
+when an effect loads, from the dataset's raw recordings.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DatasetError, SignalError
+from ..interfaces import Interpolator, Profile, TrainingData
+from ..signal import valid_number, valid_signal, valid_velocity
+from .residual import scale
+from .table import Interval, VelocityTable
+
+TRIMS = (0.0, 0.1, 0.2, 0.3, 0.4)
+FALLBACK_TRIM = 0.4  # a median-like centre, when no velocity has neighbours on both sides to choose by
+NAME = "ensemble"
+
+
+def centres(drops: np.ndarray, trim: float) -> np.ndarray:
+    """Per-sample trimmed mean over the drop axis: ``(V, D, N)`` -> ``(V, N)``."""
+    d = drops.shape[1]
+    k = int(np.floor(trim * d))
+    if d - 2 * k < 1:
+        k = (d - 1) // 2
+    ordered = np.sort(drops, axis=1)
+    return ordered[:, k:d - k].mean(axis=1)
+
+
+def residuals(lower: np.ndarray, upper: np.ndarray, lower_centre: np.ndarray, upper_centre: np.ndarray):
+    """The residual at ``w`` = 0 and ``w`` = 1 of one interval (it is affine in between)."""
+    s = scale(lower, upper)
+    return (lower_centre - lower) / s, (upper_centre - upper) / s
+
+
+def table_path(dataset_path: Path, reducer: str) -> Path:
+    """Where a dataset keeps its fitted ensemble table for ``reducer``."""
+    return Path(dataset_path) / "tables" / f"{NAME}-{reducer}.table.npz"
+
+
+def _matching_drops(bank, drops) -> np.ndarray:
+    velocities, reduced = drops
+    idx = [np.flatnonzero(np.isclose(velocities, v, rtol=0, atol=1e-9)) for v in bank.velocities]
+    if any(i.size != 1 for i in idx):
+        raise DatasetError(f"object {bank.object!r}: the recorded drops and the bank list different velocities")
+    return reduced[[int(i[0]) for i in idx]]
+
+
+def choose_trim(data: TrainingData) -> tuple[float, dict[float, float]]:
+    """The trim with the lowest mean leave-one-velocity-out RMSE on ``data`` (and every trim's score)."""
+    scores = {t: [] for t in TRIMS}
+    for obj, bank in data.banks.items():
+        drops = _matching_drops(bank, data.drops[obj])
+        cs = {t: centres(drops, t) for t in TRIMS}
+        reps = bank.profiles
+        for i in range(1, len(bank) - 1):
+            w = (bank.velocities[i] - bank.velocities[i - 1]) / (bank.velocities[i + 1] - bank.velocities[i - 1])
+            blend = (1 - w) * reps[i - 1] + w * reps[i + 1]
+            for t, c in cs.items():
+                centre = (1 - w) * c[i - 1] + w * c[i + 1]
+                pred = blend + 4 * w * (1 - w) * (centre - blend)
+                scores[t].append(float(np.sqrt(np.mean((pred - reps[i]) ** 2))))
+    if not any(scores.values()):
+        return FALLBACK_TRIM, {}
+    mean = {t: float(np.mean(v)) for t, v in scores.items()}
+    return min(TRIMS, key=lambda t: mean[t]), mean
+
+
+def fit_table(data: TrainingData, *, trim: float | None = None) -> VelocityTable:
+    """The ensemble's velocity table for every object of ``data`` (``trim`` chosen when not given)."""
+    missing = [obj for obj in data.banks if obj not in data.drops]
+    if missing:
+        raise DatasetError(f"the ensemble interpolator needs every recorded drop; dataset {data.dataset!r} keeps "
+                           f"only representative profiles of {', '.join(missing)} (no raw/ recordings); "
+                           "use interpolator: linear")
+    scores = None
+    if trim is None:
+        trim, scores = choose_trim(data)
+    intervals = {}
+    for obj, bank in data.banks.items():
+        c = centres(_matching_drops(bank, data.drops[obj]), trim)
+        intervals[obj] = [Interval(np.array([0.0, 1.0]), np.stack(residuals(bank.profiles[i], bank.profiles[i + 1],
+                                                                             c[i], c[i + 1])))
+                          for i in range(len(bank) - 1)]
+    return VelocityTable.of(data.banks, intervals, interpolator=NAME, source={"trim": trim}, dataset=data.dataset,
+                            tolerance=0.0, fit={"trims": list(TRIMS), "loo_rmse": scores})
+
+
+def write_tables(dataset, *, progress=None) -> list[Path]:
+    """Fit and write the ensemble table of every bank (reducer) of ``dataset``; returns the files."""
+    from ..data.training import training_data
+
+    say = progress or (lambda message: None)
+    written = []
+    for reducer in dataset.reducers():
+        table = fit_table(training_data(dataset, reducer))
+        written.append(table.save(table_path(dataset.path, reducer)))
+        say(f"{reducer}: trim {table.meta['source']['trim']}, wrote {written[-1]}")
+    return written
+
+
+class EnsembleInterpolator(Interpolator):
+    """Neighbours drawn toward the trimmed mean of all their recorded drops (see the module docs).
+
+    Options (effect ``interpolator_options``): ``table`` (a fitted table file; default:
+    the dataset's own), ``trim`` (fix the fraction trimmed at each end instead of the
+    fitted one; the table is then fitted when the effect loads).
+    """
+
+    name = NAME
+
+    def __init__(self, *, table: str | os.PathLike | None = None, trim: float | None = None):
+        self.table_file = None if table is None else Path(table).expanduser()
+        self.trim = None if trim is None else valid_number(trim, name="interpolator_options.trim", minimum=0.0,
+                                                           maximum=0.5)
+        self.table: VelocityTable | None = None
+
+    def fit(self, data: TrainingData, **options) -> dict:
+        self.table = fit_table(data, trim=self.trim)
+        return {"trim": self.table.meta["source"]["trim"], "loo_rmse": self.table.meta["fit"]["loo_rmse"]}
+
+    def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
+        if self.table is None:
+            self.table = self._load_or_fit(bank, dataset, base_dir)
+        self.table.attach(bank, rebuild="rewrite the dataset's tables with `hapticfx data tables DATASET`")
+
+    def _load_or_fit(self, bank, dataset, base_dir) -> VelocityTable:
+        path = self.table_file
+        if path is not None and base_dir is not None and not path.is_absolute():
+            path = Path(base_dir) / path
+        if path is None and dataset is not None:
+            path = table_path(dataset.path, bank.reducer)
+        if path is not None and (self.table_file is not None or path.is_file()):
+            table = VelocityTable.load(path)
+            if self.trim is None or table.meta["source"].get("trim") == self.trim:
+                return table
+        if dataset is None:
+            raise DatasetError("the ensemble interpolator needs its dataset's recorded drops or a fitted table")
+        from ..data.training import training_data
+
+        return fit_table(training_data(dataset, bank.reducer), trim=self.trim)
+
+    def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
+        v = valid_velocity(velocity)
+        lo = Profile(valid_velocity(lower.velocity), valid_signal(lower.samples, name="lower profile", ndim=1))
+        hi = Profile(valid_velocity(upper.velocity), valid_signal(upper.samples, name="upper profile", ndim=1))
+        if not lo.velocity < hi.velocity or not lo.velocity <= v <= hi.velocity:
+            raise SignalError(f"velocity {v} m/s must lie between the neighbours {lo.velocity} and {hi.velocity} m/s")
+        hit = None if self.table is None else self.table.lookup(lo, hi, v)
+        if hit is None:
+            raise SignalError(f"ensemble: no fitted drops for the neighbours at {lo.velocity:g} and {hi.velocity:g} "
+                              "m/s; prepare() the interpolator with their bank first")
+        return hit
+
+    def describe(self) -> dict:
+        return {} if self.table is None else {"served_from": self.table.describe(),
+                                              "trim": self.table.meta["source"]["trim"]}
+
+
+__all__ = ["EnsembleInterpolator", "centres", "choose_trim", "fit_table", "table_path", "write_tables", "TRIMS"]
