@@ -26,7 +26,8 @@ def register_actuators(register):
 
 @hookimpl
 def register_commands(app, bench):
-    from ..cli import commands, bench_render
+    from ..cli import bench_interpolators, bench_render, commands
 
     commands.register(app)
     bench_render.register(bench)
+    bench_interpolators.register(bench)

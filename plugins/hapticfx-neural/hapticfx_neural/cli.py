@@ -1,4 +1,4 @@
-"""The `hapticfx train` and `hapticfx bench interpolators` commands (torch is imported when they run)."""
+"""The `hapticfx train`, `hapticfx table` and `hapticfx bench threads` commands (torch is imported when they run)."""
 
 from __future__ import annotations
 
@@ -67,52 +67,9 @@ def table(
     typer.echo(f"wrote {written}")
 
 
-def _floats(text: Optional[str], name: str) -> list[float] | None:
-    if text is None:
-        return None
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise EffectError(f"--{name} must be comma-separated velocities in m/s, got {text!r}") from None
-
-
-def interpolators(
-    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="Dataset path or builtin:NAME."),
-    reducer: str = typer.Option("max-min", "--reducer", help="Which bank of the dataset."),
-    methods: str = typer.Option("linear,lstm,bilstm,lstm-sae,bilstm-ed,convlstm-ed,convbilstm", "--methods",
-                                help="Comma-separated interpolators (linear is always included as the baseline)."),
-    train_v: Optional[str] = typer.Option(None, "--train", help="Training target velocities (default: the paper's "
-                                          "2.80,3.13,3.43,4.85,5.05 when recorded, else all interior ones not tested)."),
-    test_v: Optional[str] = typer.Option(None, "--test", help="Test velocities (default: the paper's 3.96,4.43 when "
-                                         "recorded, else two interior velocities near 1/3 and 2/3 of the range)."),
-    epochs: int = typer.Option(100, "--epochs", min=1, help="Maximum epochs per network (early stopping may end sooner)."),
-    cv: bool = typer.Option(True, "--cv/--no-cv", help="Leave-one-velocity-out cross-validation."),
-    cv_methods: Optional[str] = typer.Option(None, "--cv-methods", help="Methods in the cross-validation (default: all)."),
-    cv_epochs: int = typer.Option(30, "--cv-epochs", min=1, help="Maximum epochs per network per fold."),
-    cached: str = typer.Option("convbilstm", "--cached", help="Methods also measured in cached mode (comma-separated)."),
-    grid_step: float = typer.Option(0.01, "--grid-step", min=1e-4, help="Cache grid spacing in m/s."),
-    repeats: int = typer.Option(50, "--repeats", min=5, help="Latency measurements per method."),
-    seed: int = typer.Option(0, "--seed", help="Training seed."),
-    config: Optional[Path] = typer.Option(None, "--config", help="YAML mapping method -> {model: ..., training: ...} overrides."),
-    out: Path = typer.Option(Path("bench-interpolators"), "--out", "-o", help="Directory for the tables (markdown, JSON) and PNGs."),
-):
-    """Paper protocol (Tables 2, 3): train per method, test at held-out velocities; error against run time."""
-    from .bench import BenchOptions, run_bench
-
-    opts = BenchOptions(
-        dataset=dataset, reducer=reducer, methods=[m.strip() for m in methods.split(",") if m.strip()],
-        train=_floats(train_v, "train"), test=_floats(test_v, "test"), epochs=epochs, cv=cv,
-        cv_methods=None if cv_methods is None else [m.strip() for m in cv_methods.split(",") if m.strip()],
-        cv_epochs=cv_epochs, cached=[m.strip() for m in cached.split(",") if m.strip()], grid_step=grid_step,
-        repeats=repeats, seed=seed, config=config, out=out,
-    )
-    run_bench(opts, echo=typer.echo)
-
-
 def register(app: typer.Typer, bench: typer.Typer) -> None:
     from .bench_threads import threads
 
     app.command("train")(train)
     app.command("table")(table)
-    bench.command("interpolators")(interpolators)
     bench.command("threads")(threads)

@@ -80,8 +80,17 @@ class NeuralInterpolator(Interpolator):
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
             label=options.get("label"), dataset_meta={"name": data.dataset, "reducer": data.reducer,
                                                       "objects": list(data.banks), "targets": targets})
+        self.net = self.net.double()  # served in float64, like its table
         self.table = None
         return {k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")}
+
+    def tabulate(self, data: TrainingData) -> VelocityTable:
+        """A velocity table of the network trained by :meth:`fit` over the banks of ``data``."""
+        from .tables import network_table
+
+        if self.net is None:
+            raise CheckpointError(f"{self.arch}: nothing to tabulate (not trained or loaded)")
+        return network_table(self.net, self.meta, list(data.banks.values()), data.dataset)
 
     # -- loading ----------------------------------------------------------------------
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:

@@ -14,24 +14,22 @@ from . import checkpoint
 from .samples import Triples
 
 
-def network_table(net, meta: dict, dataset: Dataset, *, tolerance: float = DEFAULT_TOLERANCE,
+def network_table(net, meta: dict, banks: list, dataset: str, *, tolerance: float = DEFAULT_TOLERANCE,
                   progress: Callable[[str], None] | None = None) -> VelocityTable:
-    """The velocity table of ``net`` for every object of ``dataset`` (the reducer it was trained on), in float64."""
+    """The velocity table of ``net`` for ``banks`` (one per object), computed in float64."""
     from .training import predict_residual
 
-    reducer = meta["dataset"]["reducer"]
     net64 = copy.deepcopy(net).double().eval()
-    banks = [dataset.bank(obj, reducer) for obj in dataset.objects]
     wrong = [b.object for b in banks if b.n_samples != meta["n_samples"]]
     if wrong:
         raise CheckpointError(f"the network takes {meta['n_samples']}-sample profiles; "
-                              f"{', '.join(wrong)} of dataset {dataset.name!r} have other lengths")
+                              f"{', '.join(wrong)} of dataset {dataset!r} have other lengths")
 
     def residual(lower, upper, v_lo, v_hi, v, obj):
         return predict_residual(net64, meta, Triples(lower, upper, v_lo, v_hi, v, None, [obj] * len(v)))
 
     return build_table(banks, residual, interpolator=meta["interpolator"],
-                       source={"weights_sha256": meta["weights_sha256"]}, dataset=dataset.name,
+                       source={"weights_sha256": meta.get("weights_sha256")}, dataset=dataset,
                        tolerance=tolerance, progress=progress)
 
 
@@ -41,4 +39,5 @@ def write_table(weights: Path, dataset: Dataset, *, progress: Callable[[str], No
 
     meta = checkpoint.read_meta(weights)
     net, meta = load_network(weights, arch=meta["interpolator"], dataset=dataset.name)
-    return network_table(net, meta, dataset, progress=progress).save(checkpoint.table_path(weights))
+    banks = [dataset.bank(obj, meta["dataset"]["reducer"]) for obj in dataset.objects]
+    return network_table(net, meta, banks, dataset.name, progress=progress).save(checkpoint.table_path(weights))

@@ -54,27 +54,25 @@ def test_train_command_and_clear_errors(tmp_path, syn_dataset):
     assert f"{bad}: training: unknown key(s) epoch" in r.stderr
 
 
-def test_bench_command_runs_on_a_tiny_dataset(tmp_path, syn_dataset):
-    over = tmp_path / "tiny.yaml"
-    over.write_text(yaml.safe_dump({k: {"model": v} for k, v in TINY_BY_ARCH.items()}))
+def test_bench_interpolators_trains_networks_per_round_and_serves_them_from_tables(tmp_path, syn_dataset):
+    rows = tmp_path / "rows.yaml"
+    rows.write_text(yaml.safe_dump({
+        "convbilstm-tiny": {"interpolator": "convbilstm", "model": TINY_BY_ARCH["convbilstm"]},
+        "lstm": {"model": TINY_BY_ARCH["lstm"]},
+    }))
     out = tmp_path / "bench"
-    r = _cli("bench", "interpolators", "--dataset", str(syn_dataset), "--methods", "lstm,convbilstm",
-             "--epochs", "2", "--cv-epochs", "1", "--cv-methods", "lstm", "--repeats", "5", "--grid-step", "0.05",
-             "--config", str(over), "--out", str(out))
+    r = _cli("bench", "interpolators", "--dataset", str(syn_dataset), "--methods", "convbilstm-tiny,lstm",
+             "--protocol", "paper", "--epochs", "2", "--repeats", "5", "--config", str(rows), "--out", str(out))
     assert r.returncode == 0, r.stderr[-2000:]
-    for name in ("tables.md", "results.json", "error_vs_latency.png", "fig8.png"):
-        assert (out / name).is_file(), name
     res = json.loads((out / "results.json").read_text())
-    assert res["test"] == [3.96, 4.43] and res["train"] == [2.8, 3.13, 3.43, 4.85, 5.05]
-    assert set(res["methods"]) == {"linear", "lstm", "convbilstm"} and set(res["cv"]) == {"linear", "lstm"}
-    for method in ("linear", "convbilstm"):  # endpoint-consistent: no jump at recorded velocities
-        assert res["methods"][method]["continuity"]["direct"]["jump_g"] < 1e-5
-    assert "Table 3" in r.stdout
-
-
-def test_bench_refuses_an_unrecorded_test_velocity(syn_dataset):
-    r = _cli("bench", "interpolators", "--dataset", str(syn_dataset), "--test", "3.5", "--no-cv")
-    assert r.returncode == 2 and "--test velocity 3.5 m/s is not recorded" in r.stderr
+    summary = res["summary"]["methods"]
+    assert set(summary) == {"linear", "convbilstm-tiny", "lstm"}
+    assert sorted({f["velocity"] for f in res["results"]["folds"]}) == [3.96, 4.43]
+    for row in ("convbilstm-tiny", "lstm"):
+        assert summary[row]["table_vs_direct_max"] <= 1e-6
+        assert summary[row]["table_latency_ms"]["median"] < summary[row]["latency_ms"]["median"]
+        assert summary[row]["extra"]["epochs_run"] == 2
+    assert "### RMSE vs representative (g)" in r.stdout
 
 
 def test_shipped_weights_play_the_brick_with_convbilstm(tmp_path):

@@ -1,0 +1,187 @@
+"""Summaries, Markdown tables and figures of an evaluation run (``hapticfx bench interpolators``).
+
+Every ratio is paired: a method and linear are scored on the same folds, and the
+95 % confidence interval of ``sum(method) / sum(linear)`` comes from resampling the
+folds with replacement (percentile bootstrap, seeded).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+MEASURES = (  # key in a fold entry, label, transform
+    ("rmse", "RMSE vs representative (g)", None),
+    ("rmse_drops", "RMSE vs every drop (g)", None),
+    ("lsd_db", "log-spectral distance 20-500 Hz (dB)", None),
+    ("peak_db", "|peak error| (dB)", np.abs),
+)
+
+
+def _paired(values: np.ndarray, base: np.ndarray, rng: np.random.Generator, boot: int) -> tuple[float, float, float]:
+    ratio = float(values.sum() / base.sum())
+    idx = rng.integers(0, len(values), size=(boot, len(values)))
+    samples = values[idx].sum(axis=1) / base[idx].sum(axis=1)
+    lo, hi = np.percentile(samples, [2.5, 97.5])
+    return ratio, float(lo), float(hi)
+
+
+def summarise(results: dict, *, boot: int = 2000, seed: int = 0) -> dict:
+    """Per method: means, paired ratios to linear with bootstrap CIs, wins, timings; the floors."""
+    rng = np.random.default_rng(seed)
+    rows = results["methods"]
+    lin = {(e["object"], e["velocity"]): e for e in rows["linear"]["folds"]}
+    out = {"floors": {}, "methods": {}, "objects": {}}
+    folds = results["folds"]
+    for key in ("drop_to_drop_rmse", "mean_of_others_rmse", "drop_to_drop_lsd_db", "drop_to_drop_peak_db"):
+        vals = [f[key] for f in folds if key in f]
+        if vals:
+            out["floors"][key] = float(np.mean(vals))
+    for name, row in rows.items():
+        if row["error"] or not row["folds"]:
+            out["methods"][name] = {"error": row["error"] or "no folds"}
+            continue
+        entries = row["folds"]
+        s = {"n": len(entries), "fit_s": float(np.mean([f["fit_s"] for f in row["fits"]]))}
+        for key, _, fn in MEASURES:
+            if not all(key in e for e in entries):
+                continue
+            v = np.array([e[key] for e in entries])
+            b = np.array([lin[(e["object"], e["velocity"])][key] for e in entries])
+            if fn is not None:
+                v, b = fn(v), fn(b)
+            s[key] = float(v.mean())
+            s[f"{key}_ratio"] = _paired(v, b, rng, boot)
+            s[f"{key}_wins"] = int(np.sum(v < b))
+        for k in ("latency_ms", "table_latency_ms"):
+            if k in row:
+                s[k] = row[k]
+        diffs = [e["table_vs_direct"] for e in entries if "table_vs_direct" in e]
+        if diffs:
+            s["table_vs_direct_max"] = float(max(diffs))
+        s["extra"] = {k: v for k, v in row["fits"][0].items() if k != "fit_s"} if row["fits"] else {}
+        out["methods"][name] = s
+    for obj in dict.fromkeys(f["object"] for f in folds):
+        per = {}
+        base = np.array([e["rmse"] for e in rows["linear"]["folds"] if e["object"] == obj])
+        for name, row in rows.items():
+            if row["error"]:
+                continue
+            v = np.array([e["rmse"] for e in row["folds"] if e["object"] == obj])
+            per[name] = float(v.sum() / base.sum()) if len(v) == len(base) and base.sum() > 0 else float("nan")
+        floor = [f["mean_of_others_rmse"] for f in folds if f["object"] == obj and "mean_of_others_rmse" in f]
+        if floor:
+            per["floor: mean of other drops"] = float(np.sum(floor) / base.sum())
+        out["objects"][obj] = per
+    return out
+
+
+def _ci(t) -> str:
+    return f"{t[0]:.3f} [{t[1]:.3f}, {t[2]:.3f}]"
+
+
+def markdown(results: dict, summary: dict) -> str:
+    """The tables of one run, in Markdown."""
+    n = len(results["folds"])
+    lines = [f"Dataset `{results['dataset']}` (reducer `{results['reducer']}`), protocol `{results['protocol']}`: "
+             f"{results['rounds']} rounds, {n} folds. Ratios are paired against linear on the same folds, "
+             "95 % bootstrap CI in brackets; lower is better for every measure.", ""]
+    names = [m for m, s in summary["methods"].items() if "error" not in s]
+    for key, label, _ in MEASURES:
+        if not all(key in summary["methods"][m] for m in names):
+            continue
+        lines += [f"### {label}", "", "| method | mean | / linear [95 % CI] | folds better than linear |",
+                  "|---|---|---|---|"]
+        for m in names:
+            s = summary["methods"][m]
+            lines.append(f"| {m} | {s[key]:.4f} | {_ci(s[f'{key}_ratio'])} | {s[f'{key}_wins']}/{s['n']} |")
+        fl = summary["floors"]
+        floor_key = {"rmse": ["drop_to_drop_rmse", "mean_of_others_rmse"], "lsd_db": ["drop_to_drop_lsd_db"],
+                     "peak_db": ["drop_to_drop_peak_db"]}.get(key, [])
+        base = summary["methods"]["linear"][key]
+        for fk in floor_key:
+            if fk in fl:
+                what = ("floor: another drop at the same velocity" if fk.startswith("drop_to_drop")
+                        else "floor: mean of the other drops at the same velocity")
+                lines.append(f"| *{what}* | {fl[fk]:.4f} | {fl[fk] / base:.3f} | |")
+        lines.append("")
+    lines += ["### Run time", "", "| method | fit per round (s) | direct median / p99 (ms) | served from a table "
+              "median / p99 (ms) | table vs direct (max relative) |", "|---|---|---|---|---|"]
+    for m in names:
+        s = summary["methods"][m]
+        lat = s.get("latency_ms")
+        tab = s.get("table_latency_ms")
+        lines.append(f"| {m} | {s['fit_s']:.2f} | "
+                     + (f"{lat['median']:.4f} / {lat['p99']:.4f}" if lat else "-") + " | "
+                     + (f"{tab['median']:.4f} / {tab['p99']:.4f}" if tab else "-") + " | "
+                     + (f"{s['table_vs_direct_max']:.1e}" if "table_vs_direct_max" in s else "-") + " |")
+    lines += ["", "### RMSE / linear per object", "", "| object | " + " | ".join(summary["objects"][next(iter(
+        summary["objects"]))]) + " |", "|---|" + "---|" * len(summary["objects"][next(iter(summary["objects"]))])]
+    for obj, per in summary["objects"].items():
+        lines.append(f"| {obj} | " + " | ".join(f"{v:.3f}" for v in per.values()) + " |")
+    failed = {m: s["error"] for m, s in summary["methods"].items() if "error" in s}
+    if failed:
+        lines += ["", "Not evaluated: " + "; ".join(f"{m}: {e}" for m, e in failed.items())]
+    return "\n".join(lines) + "\n"
+
+
+def figures(results: dict, summary: dict, banks: dict, out: Path) -> list[Path]:
+    """``error_vs_runtime.png`` (RMSE and log-spectral distance against run time, floors drawn in)
+    and ``examples.png`` (the middle round's predictions beside the held-out drops)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [m for m, s in summary["methods"].items() if "error" not in s]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.3))
+    for ax, key, floor_keys, label in ((axes[0], "rmse", ("drop_to_drop_rmse", "mean_of_others_rmse"), "RMSE (g)"),
+                                       (axes[1], "lsd_db", ("drop_to_drop_lsd_db",), "log-spectral distance (dB)")):
+        for m in names:
+            s = summary["methods"][m]
+            served = s.get("table_latency_ms") or s.get("latency_ms")
+            if served is None:
+                continue
+            ax.scatter(served["median"], s[key], s=36, zorder=3)
+            ax.annotate(m, (served["median"], s[key]), textcoords="offset points", xytext=(4, 4), fontsize=8)
+        styles = iter(("--", ":"))
+        for fk in floor_keys:
+            if fk in summary["floors"]:
+                what = "another drop" if fk.startswith("drop_to_drop") else "mean of the other drops"
+                ax.axhline(summary["floors"][fk], color="grey", ls=next(styles), lw=1, label=f"floor: {what}")
+        ax.set_xscale("log")
+        ax.set_xlabel("run time per profile as served, median (ms)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    fig.suptitle(f"{results['dataset']} ({results['reducer']}), {results['protocol']}: error against run time",
+                 fontsize=10)
+    fig.tight_layout()
+    paths = [out / "error_vs_runtime.png"]
+    fig.savefig(paths[0], dpi=110)
+    plt.close(fig)
+
+    kept = {m: results["methods"][m].get("predictions", {}) for m in names}
+    keys = list(next((k for k in kept.values() if k), {}))
+    if not keys:
+        return paths
+    fig, axes = plt.subplots(len(keys), 1, figsize=(9, 2.1 * len(keys)), squeeze=False)
+    for ax, key in zip(axes[:, 0], keys):
+        obj, v = key.rsplit("@", 1)
+        bank = banks[obj]
+        t = np.arange(bank.n_samples) / bank.rate_hz * 1e3
+        ax.plot(t, bank.profiles[bank.index_of(float(v))], color="k", lw=1.3, label="held-out representative")
+        for m in names:
+            if key in kept[m]:
+                ax.plot(t, kept[m][key], lw=0.9, ls=":" if m == "linear" else "-", label=m)
+        ax.set_xlim(0, t[-1] * 0.6)
+        ax.set_ylabel(f"{obj}\n{float(v):.2f} m/s (g)", fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=7, ncol=min(4, len(names) + 1), loc="lower right")
+    axes[-1, 0].set_xlabel("time (ms)")
+    fig.tight_layout()
+    paths.append(out / "examples.png")
+    fig.savefig(paths[1], dpi=110)
+    plt.close(fig)
+    return paths

@@ -1,0 +1,159 @@
+"""Running interpolators over evaluation rounds: fit on the training data, predict the held-out folds.
+
+Every method sees the same rounds. Per fold it is scored against the held-out
+representative and against every recorded drop at that velocity, beside the floors
+those drops set (:func:`hapticfx.evaluation.measures.floors`). A method that can
+serve a velocity table (``tabulate``) is also served from one, and the table's
+answer is compared with the method's own.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import yaml
+
+from ..data.dataset import Dataset
+from ..data.training import recorded_drops, training_data
+from ..errors import EffectError, HapticfxError
+from ..registry import get_registry
+from ..timing import measure
+from . import measures
+from .folds import rounds_for
+
+
+@dataclass(frozen=True)
+class Method:
+    """One row of the evaluation: a registered interpolator, its options and its fit options."""
+
+    row: str
+    interpolator: str
+    options: dict = field(default_factory=dict)
+    fit: dict = field(default_factory=dict)
+
+
+def methods_from(names: list[str], config: Path | None = None) -> list[Method]:
+    """Rows for ``names``; ``config`` (YAML) maps a row name to ``{interpolator, options, model, training}``.
+
+    A row named like an interpolator overrides its settings; a new name with ``interpolator:`` adds a
+    variant (for example the shipped ConvBiLSTM's sizes). ``linear`` always comes first: the baseline.
+    """
+    rows = {}
+    if config is not None:
+        try:
+            rows = yaml.safe_load(Path(config).read_text()) or {}
+        except (OSError, yaml.YAMLError) as exc:
+            raise EffectError(f"cannot read: {exc}", source=str(config)) from exc
+        if not isinstance(rows, dict) or not all(isinstance(v, dict) for v in rows.values()):
+            raise EffectError("expected a mapping: row -> {interpolator, options, model, training}", source=str(config))
+    known = set(get_registry().names("interpolator"))
+    out = []
+    for name in ["linear"] + [n for n in names if n != "linear"]:
+        row = rows.get(name, {})
+        unknown = sorted(set(row) - {"interpolator", "options", "model", "training"})
+        if unknown:
+            raise EffectError(f"unknown key(s) {', '.join(unknown)}; allowed: interpolator, options, model, training",
+                              source=str(config), key=name)
+        interp = row.get("interpolator", name)
+        if interp not in known:
+            raise EffectError(f"unknown method {name!r}: no interpolator {interp!r}; installed: "
+                              f"{', '.join(sorted(known))} (or rows named in --config with an `interpolator:` key)")
+        fit = {k: row[k] for k in ("model", "training") if k in row}
+        out.append(Method(name, interp, dict(row.get("options") or {}), fit))
+    return out
+
+
+def _fold_truth(dataset: Dataset, obj: str, reducer: str, velocity: float, drops_cache: dict):
+    """The representative at ``velocity``, every drop recorded there (or None) and its representative's index."""
+    bank = dataset.bank(obj, reducer)
+    i = bank.index_of(velocity)
+    if obj not in drops_cache:
+        drops_cache[obj] = recorded_drops(dataset, obj, reducer)
+    found = drops_cache[obj]
+    if found is None:
+        return bank.profiles[i], None, None
+    velocities, drops = found
+    j = int(np.flatnonzero(np.isclose(velocities, velocity, rtol=0, atol=1e-9))[0])
+    rep = int(dataset.representatives(obj)["chosen"][j])
+    return bank.profiles[i], drops[j], rep
+
+
+def _scores(pred, truth, drops, rate_hz: float) -> dict:
+    out = {"rmse": float(measures.rmse(pred, truth)),
+           "lsd_db": float(measures.log_spectral_distance(pred, truth, rate_hz=rate_hz)),
+           "peak_db": float(measures.peak_error_db(pred, truth))}
+    if drops is not None:
+        out["rmse_drops"] = float(np.mean(measures.rmse(pred, drops)))
+        out["lsd_drops_db"] = float(np.mean(measures.log_spectral_distance(pred, drops, rate_hz=rate_hz)))
+    return out
+
+
+def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, protocol: str = "lovo",
+                   repeats: int = 50, echo: Callable[[str], None] = print) -> dict:
+    """Fit every method on every round and score it on the held-out folds; returns plain data (JSON-able)."""
+    banks = {o: dataset.bank(o, reducer) for o in dataset.objects}
+    rounds = rounds_for(protocol, banks)
+    rate = dataset.rate_hz
+    drops_cache: dict = {}
+    folds, rows = [], {m.row: {"interpolator": m.interpolator, "fits": [], "folds": [], "error": None} for m in methods}
+    for k, rnd in enumerate(rounds):
+        echo(f"[{k + 1}/{len(rounds)}] {rnd.name}: hold out "
+             + ", ".join(f"{f.object} {f.velocity:g}" for f in rnd.folds))
+        data = training_data(dataset, reducer, holdout=rnd.holdout, targets=rnd.targets)
+        truths = {}
+        for f in rnd.folds:
+            truth, drops, rep = _fold_truth(dataset, f.object, reducer, f.velocity, drops_cache)
+            truths[f] = (truth, drops)
+            floor = measures.floors(drops, rep, rate_hz=rate) if drops is not None else {}
+            folds.append({"object": f.object, "velocity": f.velocity, "round": k, **floor})
+        for m in methods:
+            row = rows[m.row]
+            if row["error"]:
+                continue
+            echo(f"  {m.row}: fitting")
+            try:
+                _run_method(m, row, data, rnd, truths, rate, repeats if k == 0 else 0, k == len(rounds) // 2, echo)
+            except HapticfxError as exc:
+                row["error"] = str(exc)
+                echo(f"  {m.row}: skipped: {exc}")
+    return {"dataset": dataset.name, "reducer": reducer, "protocol": protocol, "rate_hz": rate,
+            "rounds": len(rounds), "folds": folds, "methods": rows}
+
+
+def _run_method(m: Method, row: dict, data, rnd, truths: dict, rate: float, repeats: int, keep: bool, echo) -> None:
+    interp = get_registry().create("interpolator", m.interpolator, **m.options)
+    t0 = time.perf_counter()
+    summary = interp.fit(data, **m.fit, label=f"{m.row}, {rnd.name}")
+    fit_s = time.perf_counter() - t0
+    for bank in data.banks.values():
+        interp.prepare(bank)
+    table = interp.tabulate(data) if hasattr(interp, "tabulate") else None
+    if table is not None:
+        for bank in data.banks.values():
+            table.attach(bank, rebuild="(evaluation)")
+    row["fits"].append({"fit_s": fit_s, **{k: v for k, v in summary.items() if isinstance(v, (int, float, str))}})
+    for f in rnd.folds:
+        lo, hi = data.banks[f.object].neighbours(f.velocity)
+        pred = interp.interpolate(lo, hi, f.velocity)
+        truth, drops = truths[f]
+        entry = {"object": f.object, "velocity": f.velocity, **_scores(pred, truth, drops, rate)}
+        if keep:
+            row.setdefault("predictions", {})[f"{f.object}@{f.velocity:g}"] = pred.tolist()
+        if table is not None:
+            served = table.lookup(lo, hi, f.velocity)
+            entry["table_vs_direct"] = float(np.max(np.abs(served - pred)) / max(np.max(np.abs(pred)), 1e-12))
+        row["folds"].append(entry)
+    if repeats:
+        f = rnd.folds[0]
+        lo, hi = data.banks[f.object].neighbours(f.velocity)
+        t = measure(lambda: interp.interpolate(lo, hi, f.velocity), repeat=repeats, warmup=3)
+        row["latency_ms"] = {"median": 1e3 * t.median, "p99": 1e3 * t.p99}
+        if table is not None:
+            t = measure(lambda: table.lookup(lo, hi, f.velocity), repeat=max(repeats, 200), warmup=3)
+            row["table_latency_ms"] = {"median": 1e3 * t.median, "p99": 1e3 * t.p99}
+    mean = np.mean([e["rmse"] for e in row["folds"][-len(rnd.folds):]])
+    echo(f"  {m.row}: fitted in {fit_s:.1f} s, RMSE {mean:.4f} g on this round")

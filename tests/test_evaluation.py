@@ -1,0 +1,128 @@
+"""Evaluation of interpolators: measures, floors, folds on uneven datasets, paired ratios, the command."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from hapticfx.data.bank import ProfileBank
+from hapticfx.data.build import build_dataset
+from hapticfx.data.dataset import open_dataset
+from hapticfx.data.toy import toy_recordings
+from hapticfx.errors import DatasetError, EffectError
+from hapticfx.evaluation import measures
+from hapticfx.evaluation.folds import lovo_rounds, paper_rounds
+from hapticfx.evaluation.report import summarise
+from hapticfx.evaluation.runner import methods_from, run_evaluation
+from hapticfx.objects import PAPER_OBJECTS
+
+META = dict(name="uneven", rate_hz=1000.0, sensor={"model": "synthetic"}, provenance={"source": "test"})
+
+
+@pytest.fixture(scope="module")
+def uneven(tmp_path_factory):
+    """Two objects recorded at different velocities, different numbers of them, different drop counts."""
+    recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], [2.0, 2.6, 3.3, 4.1], drops=5, seed=1),
+            toy_recordings(PAPER_OBJECTS["steel-plate"], [2.2, 3.0, 3.5, 3.9, 4.6, 5.0], drops=7, seed=2)]
+    return open_dataset(build_dataset(tmp_path_factory.mktemp("ev") / "uneven", recs, **META))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_measures_on_known_signals(dtype):
+    t = np.arange(500) / 1000.0
+    x = (np.sin(2 * np.pi * 100 * t) * np.exp(-10 * t)).astype(dtype)
+    assert measures.rmse(x, x) == 0.0 and measures.log_spectral_distance(x, x) == 0.0
+    assert np.isclose(measures.rmse(x, 0 * x), np.sqrt(np.mean(x.astype(np.float64) ** 2)))
+    assert np.isclose(measures.peak_error_db(0.5 * x, x), 20 * np.log10(0.5))
+    # a gain of 2 moves every bin by 6.02 dB where the spectrum stands well above the -60 dB floor
+    noise = np.random.default_rng(1).standard_normal(500).astype(dtype)
+    assert np.isclose(measures.log_spectral_distance(2 * noise, noise), 20 * np.log10(2), atol=0.05)
+    blurred = np.convolve(x, np.ones(9) / 9, mode="same")
+    assert measures.log_spectral_distance(blurred, x) > 3.0 and measures.peak_error_db(blurred, x) < 0
+    assert measures.log_spectral_distance(np.zeros(500), np.zeros(500)) == 0.0
+    with pytest.raises(Exception, match="non-finite"):
+        measures.rmse(x * np.nan, x)
+
+
+def test_floors_of_identical_drops_are_zero_and_grow_with_spread():
+    rng = np.random.default_rng(0)
+    base = rng.standard_normal(200)
+    same = np.stack([base] * 5)
+    assert measures.floors(same, 2)["drop_to_drop_rmse"] == 0.0
+    spread = base + 0.3 * rng.standard_normal((5, 200))
+    f = measures.floors(spread, 0)
+    assert 0.3 < f["drop_to_drop_rmse"] < 0.6 and f["mean_of_others_rmse"] < f["drop_to_drop_rmse"]
+    assert measures.floors(spread[:1], 0) == {}
+
+
+def test_lovo_predicts_every_interior_velocity_of_every_object_once(uneven):
+    banks = {o: uneven.bank(o, "max-min") for o in uneven.objects}
+    rounds = lovo_rounds(banks)
+    assert len(rounds) == 4  # steel-plate has 4 interior velocities, wood-beam 2
+    seen = [(f.object, f.velocity) for r in rounds for f in r.folds]
+    expected = [(o, float(v)) for o, b in banks.items() for v in b.velocities[1:-1]]
+    assert sorted(seen) == sorted(expected)
+    with pytest.raises(DatasetError, match="needs an object recorded at 3 or more velocities"):
+        lovo_rounds({"x": ProfileBank("x", "max-min", 1000.0, np.array([1.0, 2.0]), np.ones((2, 4)))})
+    with pytest.raises(DatasetError, match=r"the paper protocol needs '[a-z-]*' recorded at 2.8.*use --protocol lovo"):
+        paper_rounds(banks)
+
+
+def test_run_scores_every_fold_and_ratios_are_paired(uneven):
+    rows = methods_from(["ensemble", "linear"])
+    assert [r.row for r in rows] == ["linear", "ensemble"]
+    results = run_evaluation(uneven, "max-min", rows, repeats=5, echo=lambda m: None)
+    assert len(results["folds"]) == 6 and results["rounds"] == 4
+    for row in results["methods"].values():
+        assert row["error"] is None and len(row["folds"]) == 6
+        for e in row["folds"]:
+            assert all(np.isfinite(e[k]) for k in ("rmse", "rmse_drops", "lsd_db", "peak_db", "lsd_drops_db"))
+    for f in results["folds"]:
+        assert f["mean_of_others_rmse"] <= f["drop_to_drop_rmse"] + 1e-12
+    summary = summarise(results, boot=500)
+    lin = summary["methods"]["linear"]
+    assert lin["rmse_ratio"] == (1.0, 1.0, 1.0) and lin["rmse_wins"] == 0
+    ens = summary["methods"]["ensemble"]
+    lo, mid, hi = ens["rmse_ratio"][1], ens["rmse_ratio"][0], ens["rmse_ratio"][2]
+    assert lo <= mid <= hi
+    mean_ratio = ens["rmse"] / lin["rmse"]
+    assert np.isclose(mid, mean_ratio)  # folds are paired one to one: ratio of sums = ratio of means
+    assert set(summary["objects"]) == {"wood-beam", "steel-plate"}
+    json.dumps(results)
+
+
+def test_a_method_that_cannot_run_is_reported_not_fatal(tiny_dataset):
+    ds = open_dataset(tiny_dataset)
+    results = run_evaluation(ds, "max-min", methods_from(["ensemble"]), repeats=5, echo=lambda m: None)
+    assert results["methods"]["ensemble"]["error"].startswith("the ensemble interpolator needs every recorded drop")
+    assert len(results["methods"]["linear"]["folds"]) == len(results["folds"])
+    assert "rmse_drops" not in results["methods"]["linear"]["folds"][0]  # no raw drops: no drop measures
+    summary = summarise(results, boot=100)
+    assert "error" in summary["methods"]["ensemble"]
+
+
+def test_unknown_methods_and_config_keys_are_refused(tmp_path):
+    with pytest.raises(EffectError, match="unknown method 'nope': no interpolator 'nope'"):
+        methods_from(["nope"])
+    cfg = tmp_path / "rows.yaml"
+    cfg.write_text("lin2: {interpolator: linear, epoch: 3}\n")
+    with pytest.raises(EffectError, match=r"rows.yaml: lin2: unknown key\(s\) epoch"):
+        methods_from(["lin2"], cfg)
+
+
+def test_the_command_writes_tables_json_and_figures(uneven, tmp_path):
+    out = tmp_path / "bench"
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--dataset", str(uneven.path),
+                        "--repeats", "5", "--out", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    for name in ("tables.md", "results.json", "error_vs_runtime.png", "examples.png"):
+        assert (out / name).is_file(), name
+    assert "### RMSE vs representative (g)" in r.stdout and "floor: mean of the other drops" in r.stdout
+    assert "[4/4]" in r.stderr
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--dataset", str(uneven.path),
+                        "--protocol", "paper"], capture_output=True, text=True)
+    assert r.returncode == 2 and "the paper protocol needs" in r.stderr and "Traceback" not in r.stderr
