@@ -60,6 +60,10 @@ MATERIALS: dict[str, Material] = {
         Material("concrete", 8.0e6, 0.38),
         Material("wood", 3.0e6, 0.26),
         Material("steel", 2.0e7, 0.12),
+        Material("ceramic", 1.2e7, 0.20),
+        Material("rubber", 4.0e5, 0.60),
+        Material("aluminium", 1.5e7, 0.15),
+        Material("glass", 2.5e7, 0.10),
         Material("unknown", 3.0e6, 0.26),
     )
 }

@@ -35,6 +35,9 @@ def synth(
     seed: int = typer.Option(20230417, "--seed", help="Random seed: the same seed gives the same recordings."),
     workers: int = typer.Option(2, "--workers", min=1, max=64, help="Processes simulating drops in parallel."),
     force: bool = typer.Option(False, "--force", help="Replace OUT if it exists."),
+    spec: Optional[Path] = typer.Option(None, "--spec", help="YAML spec: other objects (mass, size, material), "
+                                        "velocities per object, drops, seed, helmet and sensor (see docs/physics.md; "
+                                        "not with --objects, --velocities, --drops, --seed)."),
 ):
     """Simulate drops on the helmet rig and write a dataset (raw 3-axis recordings + banks).
 
@@ -50,6 +53,18 @@ def synth(
             raise DatasetError("--builtin regenerates the packaged dataset exactly; it takes no OUT, --objects, "
                                "--velocities, --drops or --seed")
         path = sim.synth_builtin(workers=workers, progress=_say)
+    elif spec is not None:
+        from .synth_spec import load_spec
+
+        if out is None:
+            raise DatasetError("give an output directory for --spec")
+        if objects != "all" or velocities or drops != sim.BUILTIN_DROPS or seed != sim.BUILTIN_SEED:
+            raise DatasetError("--spec gives the objects, velocities, drops and seed; drop --objects, --velocities, "
+                               "--drops and --seed")
+        s = load_spec(spec)
+        path = sim.synth_dataset(out, s.objects, s.velocities, drops=s.drops, seed=s.seed, name=s.name, rig=s.rig,
+                                 workers=workers, overwrite=force, progress=_say,
+                                 command=f"hapticfx data synth {out} --spec {spec}")
     else:
         if out is None:
             raise DatasetError("give an output directory (or --builtin)")

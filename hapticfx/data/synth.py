@@ -197,7 +197,10 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
                   drops: int = BUILTIN_DROPS, seed: int = BUILTIN_SEED, name: str | None = None,
                   rig: Rig | None = None, workers: int = 1, overwrite: bool = False,
                   progress: Callable[[str], None] | None = None, command: str | None = None) -> Path:
-    """Simulate every object's drops and write a dataset (raw + banks for both reducers) to ``out``."""
+    """Simulate every object's drops and write a dataset (raw + banks for both reducers) to ``out``.
+
+    ``velocities``: one list for every object, or a mapping object id -> its own list.
+    """
     from .build import ObjectRecordings, build_dataset
 
     rig = rig or Rig()
@@ -206,10 +209,12 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
         raise DatasetError("no objects to simulate")
     if Path(out).exists() and not overwrite:  # before minutes of simulation, not after
         raise DatasetError(f"{out}: already exists (use --force to replace it)")
-    v = np.asarray(velocities, dtype=np.float64)
+    per_object = {o.id: np.asarray(velocities[o.id] if isinstance(velocities, dict) else velocities, dtype=np.float64)
+                  for o in objects}
     started = time.perf_counter()
     recordings = [
-        ObjectRecordings(info, v, record_drops(info, v, drops, seed=seed, rig=rig, workers=workers, progress=progress))
+        ObjectRecordings(info, per_object[info.id], record_drops(info, per_object[info.id], drops, seed=seed, rig=rig,
+                                                                 workers=workers, progress=progress))
         for info in objects
     ]
     from .. import __version__ as hapticfx_version
@@ -219,7 +224,8 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
         "command": command or "hapticfx.data.synth.synth_dataset (Python API)",
         "seed": int(seed),
         "drops": int(drops),
-        "velocities_mps": v.tolist(),
+        "velocities_mps": ({k: v.tolist() for k, v in per_object.items()} if isinstance(velocities, dict)
+                           else next(iter(per_object.values())).tolist()),
         "hapticfx_version": hapticfx_version,
         "numpy": np.__version__,
         "python": platform.python_version(),

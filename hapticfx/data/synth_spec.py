@@ -1,0 +1,139 @@
+"""Simulation spec files: other objects, other velocities per object, another helmet and sensor.
+
+``hapticfx data synth OUT --spec SPEC.yaml`` simulates what a spec describes::
+
+    name: second-rig                  # dataset name (default: OUT's folder name)
+    seed: 99                          # default 20230417
+    drops: 10                         # per velocity, default 10
+    rig:                              # every key optional; defaults: the built-in rig
+      helmet: {mass: 2.8, support_hz: 30, modes: [{hz: 152, zeta: 0.04, mass: 1.3,
+               order: 1, lateral: 0.04, vertical: 0.06}]}
+      sensor: {range_g: 6.0, sensitivity_v_per_g: 0.174}
+    objects:
+      - {id: ceramic-tile, name: Ceramic tile, mass_kg: 0.12, dimensions_mm: [100, 100, 8],
+         material: ceramic, velocities_mps: [1.82, 2.66, 2.94]}
+
+Materials come from the simulator's table (:data:`hapticfx.data.contact.MATERIALS`).
+Unknown keys, wrong types and out-of-range numbers are errors naming the file and key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..effect import read_yaml
+from ..errors import EffectError
+from ..objects import ObjectInfo
+from .contact import MATERIALS
+from .helmet import Helmet, ShellMode
+from .sensor import Accelerometer
+from .synth import BUILTIN_DROPS, BUILTIN_SEED, Rig
+
+
+@dataclass(frozen=True)
+class SynthSpec:
+    """A parsed spec: the objects with their own velocities, the rig, drops, seed and name."""
+
+    objects: list[ObjectInfo]
+    velocities: dict[str, list[float]]
+    rig: Rig
+    drops: int
+    seed: int
+    name: str | None
+
+
+def _check_keys(value, allowed, source: str, key: str) -> dict:
+    if not isinstance(value, dict):
+        raise EffectError("expected a mapping", source=source, key=key)
+    unknown = sorted(set(value) - set(allowed))
+    if unknown:
+        raise EffectError(f"unknown key(s) {', '.join(map(str, unknown))}; allowed: {', '.join(allowed)}",
+                          source=source, key=key)
+    return value
+
+
+def _number(value, source: str, key: str, *, minimum: float, maximum: float, integer: bool = False) -> float:
+    ok = isinstance(value, int) if integer else isinstance(value, (int, float))
+    if isinstance(value, bool) or not ok or not minimum <= value <= maximum:
+        kind = "an integer" if integer else "a number"
+        raise EffectError(f"expected {kind} in [{minimum:g}, {maximum:g}], got {value!r}", source=source, key=key)
+    return value
+
+
+def _fields(cls, given: dict, source: str, key: str, nested: dict | None = None) -> dict:
+    """Keyword arguments for dataclass ``cls`` from ``given``: numbers (or number lists for tuple fields)."""
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    _check_keys(given, list(fields), source, key)
+    out = {}
+    for name, value in given.items():
+        where = f"{key}.{name}"
+        if nested and name in nested:
+            out[name] = nested[name](value, where)
+        elif isinstance(getattr(cls(), name), tuple):
+            default = getattr(cls(), name)
+            if not isinstance(value, list) or len(value) != len(default):
+                raise EffectError(f"expected a list of {len(default)} numbers", source=source, key=where)
+            out[name] = tuple(_number(v, source, where, minimum=-1e9, maximum=1e9) for v in value)
+        else:
+            integer = isinstance(getattr(cls(), name), int)
+            out[name] = _number(value, source, where, minimum=-1e9 if name.startswith("bias") else 1e-9,
+                                maximum=1e9, integer=integer)
+    return out
+
+
+def _modes(value, source: str, key: str) -> tuple[ShellMode, ...]:
+    if not isinstance(value, list) or not value:
+        raise EffectError("expected a non-empty list of modes", source=source, key=key)
+    modes = []
+    for i, m in enumerate(value):
+        where = f"{key}[{i}]"
+        m = _check_keys(m, [f.name for f in dataclasses.fields(ShellMode)], source, where)
+        missing = [f.name for f in dataclasses.fields(ShellMode) if f.name not in m]
+        if missing:
+            raise EffectError(f"missing key(s) {', '.join(missing)}", source=source, key=where)
+        modes.append(ShellMode(**{k: _number(v, source, f"{where}.{k}", minimum=0.0, maximum=1e6,
+                                             integer=k == "order") for k, v in m.items()}))
+    return tuple(modes)
+
+
+def load_spec(path: Path) -> SynthSpec:
+    """Read and validate a simulation spec (safe YAML loader, strict keys)."""
+    source = str(path)
+    data = _check_keys(read_yaml(Path(path)), ["name", "seed", "drops", "rig", "objects"], source, "spec")
+    rig_cfg = _check_keys(data.get("rig") or {}, ["helmet", "sensor"], source, "rig")
+    helmet = Helmet(**_fields(Helmet, rig_cfg.get("helmet") or {}, source, "rig.helmet",
+                              nested={"modes": lambda v, k: _modes(v, source, k)}))
+    sensor = Accelerometer(**_fields(Accelerometer, rig_cfg.get("sensor") or {}, source, "rig.sensor"))
+    objects, velocities = [], {}
+    if not isinstance(data.get("objects"), list) or not data["objects"]:
+        raise EffectError("expected a non-empty list of objects", source=source, key="objects")
+    for i, o in enumerate(data["objects"]):
+        where = f"objects[{i}]"
+        o = _check_keys(o, ["id", "name", "mass_kg", "dimensions_mm", "material", "velocities_mps"], source, where)
+        if not isinstance(o.get("id"), str) or not o["id"]:
+            raise EffectError("expected a non-empty string", source=source, key=f"{where}.id")
+        if o["id"] in velocities:
+            raise EffectError(f"object {o['id']!r} is listed twice", source=source, key=f"{where}.id")
+        material = o.get("material", "unknown")
+        if material not in MATERIALS:
+            raise EffectError(f"unknown material {material!r}; the simulator knows: {', '.join(MATERIALS)}",
+                              source=source, key=f"{where}.material")
+        dims = o.get("dimensions_mm", [0, 0, 0])
+        if not isinstance(dims, list) or len(dims) != 3:
+            raise EffectError("expected [width, height, depth] in mm", source=source, key=f"{where}.dimensions_mm")
+        vs = o.get("velocities_mps")
+        if not isinstance(vs, list) or len(vs) < 2:
+            raise EffectError("expected a list of at least 2 velocities", source=source, key=f"{where}.velocities_mps")
+        objects.append(ObjectInfo(o["id"], str(o.get("name", o["id"])),
+                                  _number(o.get("mass_kg"), source, f"{where}.mass_kg", minimum=1e-4, maximum=100.0),
+                                  tuple(_number(d, source, f"{where}.dimensions_mm", minimum=0.0, maximum=5000.0)
+                                        for d in dims), material))
+        velocities[o["id"]] = [_number(v, source, f"{where}.velocities_mps", minimum=0.05, maximum=50.0) for v in vs]
+    return SynthSpec(objects, velocities, Rig(helmet=helmet, sensor=sensor),
+                     int(_number(data.get("drops", BUILTIN_DROPS), source, "drops", minimum=1, maximum=1000,
+                                 integer=True)),
+                     int(_number(data.get("seed", BUILTIN_SEED), source, "seed", minimum=0, maximum=2**32 - 1,
+                                 integer=True)),
+                     data.get("name"))
