@@ -46,3 +46,19 @@ def test_play_linear_data_driven_does_not_import_torch(tmp_path, tiny_dataset):
             p.impact(velocity=3.3)
     """)
     assert not [m for m in HEAVY if m in mods]
+
+
+def test_playing_the_shipped_data_driven_effects_imports_no_torch(tmp_path):
+    """The main command's effect (ensemble) and the paper's ConvBiLSTM, both served from velocity tables."""
+    from pathlib import Path
+
+    effects = Path(__file__).resolve().parents[1] / "effects"
+    for name in ("falling_brick.yaml", "falling_brick_convbilstm.yaml"):
+        mods = _modules_after(f"""
+            from hapticfx.cli import main
+            try:
+                main(["play", {str(effects / name)!r}, "--device", "wav:{tmp_path / 'o.wav'}"])
+            except SystemExit as exc:
+                assert exc.code == 0, exc.code
+        """)
+        assert not [m for m in HEAVY if m in mods], name

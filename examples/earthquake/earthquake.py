@@ -4,8 +4,9 @@
 
 MuJoCo simulates the room (see room.py); every head contact goes, as it
 happens, to a :class:`hapticfx.Engine` built from the scene file
-(scenes/earthquake_room.yaml: the paper's data-driven effects with the
-ConvBiLSTM; ``--scene scenes/earthquake_room_linear.yaml`` for the linear
+(scenes/earthquake_room.yaml: data-driven effects with the ensemble
+interpolator; ``--scene scenes/earthquake_room_convbilstm.yaml`` for the paper's
+ConvBiLSTM, ``--scene scenes/earthquake_room_linear.yaml`` for the linear
 average, ``--scene scenes/earthquake_room_kinetic.yaml`` for the
 kinetic-energy baseline). Writes to ``--out``:
 
@@ -38,9 +39,9 @@ from hapticfx.groundmotion import BUILTIN_RECORDS, builtin_record, read_at2, syn
 from hapticfx.scene import load_scene  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
-# Without --scene: the paper's method; without the neural plugin or its weights, the linear
-# average; without the built-in dataset, the kinetic-energy baseline.
-DEFAULT_SCENES = [SCENES / f"earthquake_room{suffix}.yaml" for suffix in ("", "_linear", "_kinetic")]
+# Without --scene: the data-driven effects; without the built-in dataset (or its drops), the
+# kinetic-energy baseline.
+DEFAULT_SCENES = [SCENES / f"earthquake_room{suffix}.yaml" for suffix in ("", "_kinetic")]
 
 app = typer.Typer(add_completion=False, help=__doc__.split("\n\n")[0])
 
