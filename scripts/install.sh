@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install hapticfx and its first-party plugins on a fresh Debian/Ubuntu machine.
-#   scripts/install.sh          system libraries (apt, when run as root) + hapticfx + plugins
-#   scripts/install.sh --test   the same, plus what the tests need (virtual sound server, socat, oscsend)
+#   scripts/install.sh          system libraries (apt, when run as root) + hapticfx + plugins (no torch)
+#   scripts/install.sh --test   the same, plus what the tests need (torch CPU build, virtual sound server,
+#                               socat, oscsend)
 # Uses the active Python (a virtual environment if one is active).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,11 +27,23 @@ else
   echo "install: not root; make sure these system packages are installed: ${apt_packages[*]}"
 fi
 
-# torch first, pinned to the CPU build, so that the neural plugin's `torch>=2.3` is already met
-# (an unpinned resolve downloads several GB of CUDA packages).
-"$PY" -m pip install -q --disable-pip-version-check "torch==2.13.0"
-extra=""
-[ "${1:-}" = "--test" ] && extra="[test,earthquake,docs]"
+extra="" neural=""
+if [ "${1:-}" = "--test" ]; then
+  # The tests train networks: torch, CPU build, installed first so that hapticfx-neural[train]'s `torch>=2.3`
+  # is already met (a plain resolve from PyPI takes a CUDA build of several GB; nothing here needs a GPU).
+  cpu_index=https://download.pytorch.org/whl/cpu
+  if [ "$(uname -s)" = "Linux" ] && "$PY" -c "import urllib.request as u; u.urlopen('$cpu_index/torch/', timeout=5)" 2>/dev/null; then
+    "$PY" -m pip install -q --disable-pip-version-check --index-url "$cpu_index" "torch>=2.3"
+    echo "install: torch $("$PY" -c 'import torch; print(torch.__version__)') (CPU build) from $cpu_index"
+  else
+    # PyTorch's index is unreachable: the default index. torch 2.13.0 is the release this project was
+    # tested with (pip takes a CPU wheel when one is on its find-links, as on the project's machines).
+    "$PY" -m pip install -q --disable-pip-version-check "torch==2.13.0"
+    echo "install: torch $("$PY" -c 'import torch; print(torch.__version__)') from the default index ($cpu_index unreachable)"
+  fi
+  extra="[test,earthquake,docs]" neural="[train]"
+fi
+# Playing effects needs no torch: learned interpolators are served from their velocity tables.
 "$PY" -m pip install -q --disable-pip-version-check -e ".${extra}" \
-  -e plugins/hapticfx-neural -e plugins/hapticfx-soundcard -e plugins/hapticfx-solenoid
+  -e "plugins/hapticfx-neural${neural}" -e plugins/hapticfx-soundcard -e plugins/hapticfx-solenoid
 echo "install: done ($("$PY" -m hapticfx plugins | tail -n +2 | awk '{print $4}' | sort -u | tr '\n' ' '))"
