@@ -88,7 +88,7 @@ class LimitParams:
 
     peak: float | None = field(default=None, metadata={"min": 0.0, "max": 1.0, "doc": "peak, fraction of full scale"})
     rms: float | None = field(default=None, metadata={"min": 0.0, "max": 1.0, "doc": "RMS ceiling, fraction of full scale"})
-    rms_window_s: float | None = field(default=None, metadata={"min": 1e-4, "max": 60.0, "doc": "RMS window (s); may only grow"})
+    rms_window_s: float | None = field(default=None, metadata={"min": 1e-4, "max": 60.0, "doc": "RMS window (s); may only shrink"})
     max_on_s: float | None = field(default=None, metadata={"min": 0.0, "max": 60.0, "doc": "longest pulse (s)"})
     max_duty: float | None = field(default=None, metadata={"min": 0.0, "max": 1.0, "doc": "duty cycle ceiling"})
 

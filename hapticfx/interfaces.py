@@ -114,13 +114,24 @@ class Model(abc.ABC):
         return {"model": self.name}
 
 
+_LIMIT_RANGES = {  # field: (smallest, largest, may be None); every limit is stricter when smaller
+    "peak": (0.0, 1.0, False), "rms": (0.0, 1.0, False), "rms_window_s": (1e-4, 60.0, False),
+    "max_on_s": (0.0, 3600.0, True), "max_duty": (0.0, 1.0, True), "duty_window_s": (1e-3, 3600.0, False),
+}
+
+
 @dataclass(frozen=True)
 class SafetyLimits:
     """Hard output limits for one actuator, in units of its full range.
 
     ``peak`` and ``rms`` are fractions of full scale; ``rms_window_s`` is the
     sliding window for the RMS limit. ``max_on_s`` and ``max_duty`` apply to
-    actuators that take pulses rather than waveforms (a solenoid).
+    actuators that take pulses rather than waveforms (a solenoid). Every value is
+    checked when the limits are made (a plugin cannot declare ``peak=5`` or NaN).
+
+    :meth:`lowered` makes stricter limits for an effect and keeps the actuator's own
+    in ``hard``: the limiter enforces both, so no combination of overrides can let
+    the output exceed the hard limits measured over the hard windows.
     """
 
     peak: float = 1.0
@@ -129,25 +140,48 @@ class SafetyLimits:
     max_on_s: float | None = None
     max_duty: float | None = None
     duty_window_s: float = 10.0
+    hard: "SafetyLimits | None" = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        import math
+
+        from .errors import PluginError
+
+        for name, (lo, hi, optional) in _LIMIT_RANGES.items():
+            value = getattr(self, name)
+            if value is None and optional:
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                    or not lo <= value <= hi:
+                raise PluginError(f"invalid safety limits: {name} must be a number in [{lo:g}, {hi:g}]"
+                                  f"{' or None' if optional else ''}, got {value!r}")
 
     def lowered(self, **changes) -> "SafetyLimits":
-        """Return limits with ``changes`` applied; a change may only make a limit stricter."""
+        """Stricter limits: each change may only lower a value (a window may only shrink).
+
+        ``duty_window_s`` belongs to the actuator and cannot change. The result keeps
+        the hard limits (``hard``), which the limiter enforces as well.
+        """
         from .errors import EffectError
 
         values = {}
         for key, new in changes.items():
             if new is None:
                 continue
-            if key not in self.__dataclass_fields__:
-                raise EffectError(f"unknown safety limit {key!r}; allowed: {', '.join(self.__dataclass_fields__)}")
+            if key not in _LIMIT_RANGES or key == "duty_window_s":
+                allowed = [k for k in _LIMIT_RANGES if k != "duty_window_s"]
+                raise EffectError(f"unknown safety limit {key!r}; an effect may lower: {', '.join(allowed)}")
             old = getattr(self, key)
-            strict_is_smaller = key != "rms_window_s"
-            if old is not None and ((new > old) if strict_is_smaller else (new < old)):
-                raise EffectError(
-                    f"{key} {new} would raise the actuator's hard limit {old}; an effect can only lower limits"
-                )
+            if old is not None and new > old:
+                what = "lengthen the actuator's RMS window" if key == "rms_window_s" else "raise the actuator's hard limit"
+                raise EffectError(f"{key} {new} would {what} {old}; an effect can only make limits stricter")
             values[key] = new
-        return SafetyLimits(**{**self.__dict__, **values})
+        own = {k: getattr(self, k) for k in _LIMIT_RANGES}
+        return SafetyLimits(**{**own, **values}, hard=self.hard or self)
+
+    def constraints(self) -> list["SafetyLimits"]:
+        """These limits and, when they were lowered from an actuator's, the hard ones."""
+        return [self] if self.hard is None else [self, self.hard]
 
 
 @dataclass(frozen=True)

@@ -48,9 +48,10 @@ class SafetyLimiter:
 
     ``process`` never returns a sample above ``limits.peak`` in magnitude, and
     never lets the RMS over any ``limits.rms_window_s`` window (including
-    windows spanning earlier calls) exceed ``limits.rms``. For pulse limits,
-    the time above ``on_threshold`` is capped per pulse and over
-    ``duty_window_s``.
+    windows spanning earlier calls) exceed ``limits.rms``; when ``limits`` were
+    lowered from an actuator's, its hard limits hold as well, each over its own
+    window. For pulse limits, the time above ``on_threshold`` is capped per pulse
+    and over ``duty_window_s``.
     """
 
     on_threshold = 0.05
@@ -58,7 +59,15 @@ class SafetyLimiter:
     def __init__(self, limits: SafetyLimits, rate_hz: float):
         self.limits = limits
         self.rate_hz = float(rate_hz)
-        self._win = max(1, int(round(limits.rms_window_s * self.rate_hz)))
+        every = limits.constraints()  # the effect's limits and the actuator's hard ones
+        self._peak = min(c.peak for c in every)
+        self._rms = sorted({(c.rms, max(1, int(round(c.rms_window_s * self.rate_hz)))) for c in every})
+        self._win = max(n for _, n in self._rms)
+        on = [c.max_on_s for c in every if c.max_on_s is not None]
+        duty = [c.max_duty for c in every if c.max_duty is not None]
+        self._max_on_s = min(on) if on else None
+        self._max_duty = min(duty) if duty else None
+        self._duty_window_s = limits.duty_window_s
         self._tail = np.zeros(0)  # last win-1 output samples, for windows across calls
         self._on_history: deque[tuple[float, float]] = deque()  # (time_s, on_s) per call
         self._clock_s = 0.0
@@ -79,60 +88,57 @@ class SafetyLimiter:
         """
         x = valid_signal(samples, name="limiter input").copy()
         with self._lock:
-            lim = self.limits
             if at_s is not None and at_s > self._clock_s:
                 gap_n = int((at_s - self._clock_s) * self.rate_hz)
                 keep = self._win - 1
                 self._tail = np.concatenate([self._tail, np.zeros(min(gap_n, keep))])[-keep:] if keep else self._tail
                 self._clock_s = float(at_s)
             peak = float(np.max(np.abs(x)))
-            if peak > lim.peak:
-                factor = lim.peak / peak
+            if peak > self._peak:
+                factor = self._peak / peak
                 x *= factor
                 self._note("peak_events", factor)
             x = self._limit_rms(x)
-            if lim.max_on_s is not None or lim.max_duty is not None:
+            if self._max_on_s is not None or self._max_duty is not None:
                 x = self._limit_pulses(x)
-            np.clip(x, -lim.peak, lim.peak, out=x)  # guarantee against rounding
+            np.clip(x, -self._peak, self._peak, out=x)  # guarantee against rounding
             self._clock_s += x.shape[-1] / self.rate_hz
             keep = self._win - 1
             flat = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
             self._tail = np.concatenate([self._tail, flat])[-keep:] if keep else np.zeros(0)
         return x
 
-    def _limit_rms(self, x: np.ndarray) -> np.ndarray:
-        lim = self.limits
-        mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
-        joined = np.concatenate([self._tail, mono])
+    def _over_budget(self, joined: np.ndarray, slack: float = 1.0) -> bool:
+        """Whether any window of any RMS constraint holds more energy than it may."""
         sq = np.concatenate([[0.0], np.cumsum(joined * joined)])
-        n = min(self._win, joined.size)
-        window_energy = sq[n:] - sq[:-n]
-        # Energy the earlier (already sent) samples contribute cannot be changed:
-        # scale only the new samples so every window stays within budget.
-        budget = lim.rms * lim.rms * self._win
-        worst = float(np.max(window_energy)) if window_energy.size else 0.0
-        if worst <= budget * (1 + 1e-12):
+        for rms, win in self._rms:
+            n = min(win, joined.size)
+            energy = sq[n:] - sq[:-n]
+            if energy.size and float(np.max(energy)) > rms * rms * win * slack:
+                return True
+        return False
+
+    def _limit_rms(self, x: np.ndarray) -> np.ndarray:
+        mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
+        if not self._over_budget(np.concatenate([self._tail, mono]), slack=1 + 1e-12):
             return x
+        # Energy the earlier (already sent) samples contribute cannot be changed:
+        # scale only the new samples so every window of every constraint stays within budget.
         lo, hi = 0.0, 1.0
-        tail = self._tail
         for _ in range(40):  # bisection on the gain for the new samples
             mid = 0.5 * (lo + hi)
-            j = np.concatenate([tail, mono * mid])
-            s = np.concatenate([[0.0], np.cumsum(j * j)])
-            if float(np.max(s[n:] - s[:-n])) <= budget:
-                lo = mid
-            else:
+            if self._over_budget(np.concatenate([self._tail, mono * mid])):
                 hi = mid
-        factor = lo
-        self._note("rms_events", max(factor, 1e-12))
-        return x * factor
+            else:
+                lo = mid
+        self._note("rms_events", max(lo, 1e-12))
+        return x * lo
 
     def _limit_pulses(self, x: np.ndarray) -> np.ndarray:
-        lim = self.limits
         mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else np.abs(x)
         on = mono > self.on_threshold
-        if lim.max_on_s is not None:
-            max_n = int(lim.max_on_s * self.rate_hz)
+        if self._max_on_s is not None:
+            max_n = int(self._max_on_s * self.rate_hz)
             idx = np.flatnonzero(on)
             if idx.size > max_n:
                 cut = idx[max_n]
@@ -140,12 +146,12 @@ class SafetyLimiter:
                 x[..., cut:] = 0.0
                 on[cut:] = False
                 self._note("on_time_events", max_n / idx.size if idx.size else 1.0)
-        if lim.max_duty is not None:
+        if self._max_duty is not None:
             now = self._clock_s
-            while self._on_history and self._on_history[0][0] < now - lim.duty_window_s:
+            while self._on_history and self._on_history[0][0] < now - self._duty_window_s:
                 self._on_history.popleft()
             used = sum(s for _, s in self._on_history)
-            budget = lim.max_duty * lim.duty_window_s - used
+            budget = self._max_duty * self._duty_window_s - used
             on_s = float(np.count_nonzero(on)) / self.rate_hz
             if on_s > budget:
                 allowed_n = max(0, int(budget * self.rate_hz))

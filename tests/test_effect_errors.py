@@ -68,7 +68,7 @@ CASES = [
      "{f}: actuator.gain: must be <= 1.0, got 1.5"),
     ("limit raised above the hard limit",
      GOOD + "  limits: {rms: 0.9}\n",
-     "{f}: actuator.limits: rms 0.9 would raise the actuator's hard limit 0.7; an effect can only lower limits"),
+     "{f}: actuator.limits: rms 0.9 would raise the actuator's hard limit 0.7; an effect can only make limits stricter"),
     ("bad YAML",
      "name: [unclosed\n",
      "{f}: invalid YAML: line 2, column 1: expected ',' or ']', but got '<stream end>'"),

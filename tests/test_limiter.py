@@ -84,5 +84,35 @@ def test_effect_cannot_raise_limits():
     assert hard.lowered(peak=0.5).peak == 0.5
     with pytest.raises(EffectError, match="would raise the actuator's hard limit"):
         hard.lowered(peak=0.9)
-    with pytest.raises(EffectError):
-        hard.lowered(rms_window_s=0.01)  # a shorter window is a weaker limit
+    with pytest.raises(EffectError, match="rms_window_s 60 would lengthen the actuator's RMS window 0.05"):
+        hard.lowered(rms_window_s=60)  # a longer window lets short bursts through: weaker
+    with pytest.raises(EffectError, match="unknown safety limit 'duty_window_s'"):
+        hard.lowered(duty_window_s=1.0)
+    assert hard.lowered(rms_window_s=0.01).hard is hard
+
+
+def _worst_rms(x: np.ndarray, win: int) -> float:
+    sq = np.concatenate([[0.0], np.cumsum(x * x)])
+    return float(np.sqrt(np.max(sq[win:] - sq[:-win]) / win))
+
+
+def test_a_shorter_effect_window_still_keeps_the_hard_window_within_its_limit():
+    """The haptuator case: hard RMS 0.5 over 50 ms; a 50 Hz square wave at full scale."""
+    rate = 48000.0
+    hard = SafetyLimits(peak=1.0, rms=0.5, rms_window_s=0.05)
+    t = np.arange(int(0.5 * rate)) / rate
+    square = np.sign(np.sin(2 * np.pi * 50 * t))
+    for window in (0.05, 0.03, 0.02, 0.007):
+        limiter = SafetyLimiter(hard.lowered(rms_window_s=window), rate)
+        out = np.concatenate([limiter.process(block) for block in np.array_split(square, 37)])
+        assert _worst_rms(out, int(0.05 * rate)) <= 0.5 * (1 + 1e-9), window
+        assert _worst_rms(out, int(window * rate)) <= 0.5 * (1 + 1e-9), window
+
+
+@pytest.mark.parametrize("bad", [dict(peak=5.0), dict(peak=float("nan")), dict(rms=-0.1), dict(max_on_s=-1.0),
+                                 dict(rms_window_s=0.0), dict(max_duty=2.0), dict(duty_window_s=float("inf"))])
+def test_invalid_limits_are_refused_when_made(bad):
+    from hapticfx.errors import PluginError
+
+    with pytest.raises(PluginError, match=f"invalid safety limits: {next(iter(bad))} must be a number in"):
+        SafetyLimits(**bad)
