@@ -15,24 +15,56 @@ from typing import Any
 
 import yaml
 
-from .errors import EffectError, HapticfxError
+from .errors import EffectError, HapticfxError, one_line, preview
 from .interfaces import SafetyLimits
 from .objects import ObjectInfo, builtin_object
 from .params import BuildContext, params_of, parse_params
 from .registry import Registry, get_registry
 
 
+MAX_YAML_BYTES = 1 << 20  # an effect, scene or spec is a few kB; a larger file is not one
+MAX_YAML_ALIASES = 64
+MAX_YAML_DEPTH = 32
+
+
 class _StrictLoader(yaml.SafeLoader):
-    """The safe loader, but a mapping may not repeat a key."""
+    """The safe loader with bounded cost: no repeated mapping keys, few aliases, shallow nesting."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._aliases = 0
+        self._depth = 0
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        if getattr(event, "tag", None) not in (None, "!"):
+            raise yaml.composer.ComposerError(None, None, f"tag {one_line(event.tag, 80)!r} is not allowed (these files hold "
+                                              "plain mappings, lists, strings and numbers)", event.start_mark)
+        if self.check_event(yaml.events.AliasEvent):
+            self._aliases += 1
+            if self._aliases > MAX_YAML_ALIASES:
+                raise yaml.composer.ComposerError(None, None, f"more than {MAX_YAML_ALIASES} aliases",
+                                                  self.peek_event().start_mark)
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                raise yaml.composer.ComposerError(None, None, f"nested deeper than {MAX_YAML_DEPTH} levels",
+                                                  self.peek_event().start_mark)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
 
 def _mapping_without_duplicates(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False):
     seen = {}
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
+        if not isinstance(key, (str, int, float, bool)) and key is not None:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"a mapping key must be a string or a number, got {type(key).__name__}", key_node.start_mark)
         if key in seen:
             raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r} (first at line {seen[key] + 1})", key_node.start_mark
+                None, None, f"duplicate key {preview(key)} (first at line {seen[key] + 1})", key_node.start_mark
             )
         seen[key] = key_node.start_mark.line
     return loader.construct_mapping(node, deep=deep)
@@ -42,16 +74,20 @@ _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _m
 
 
 def read_yaml(path: Path) -> Any:
-    """Parse a YAML file safely; errors name the file and line."""
+    """Parse a YAML file safely, at a bounded cost; every failure is an :class:`EffectError` naming the file."""
     path = Path(path)
-    if not path.is_file():
-        raise EffectError("file not found" if not path.exists() else "not a file", source=str(path))
     try:
+        if not path.is_file():
+            raise EffectError("file not found" if not path.exists() else "not a file", source=str(path))
+        if path.stat().st_size > MAX_YAML_BYTES:
+            raise EffectError(f"{path.stat().st_size} bytes; a YAML file here holds at most {MAX_YAML_BYTES}",
+                              source=str(path))
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise EffectError(f"cannot read: {exc}", source=str(path)) from exc
-    loader = _StrictLoader(text)
+        raise EffectError(f"cannot read: {exc.strerror if isinstance(exc, OSError) else exc}", source=str(path)) from None
+    loader = None
     try:
+        loader = _StrictLoader(text)
         return loader.get_single_data()
     except yaml.constructor.ConstructorError as exc:
         mark = exc.problem_mark
@@ -68,8 +104,11 @@ def read_yaml(path: Path) -> Any:
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
         raise EffectError(f"invalid YAML: {where}{problem}", source=str(path)) from None
+    except (ValueError, TypeError, OverflowError, RecursionError) as exc:
+        raise EffectError(f"invalid YAML value: {exc}", source=str(path)) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 @dataclass(frozen=True)
@@ -139,21 +178,23 @@ ACTUATOR_CORE_KEYS = ("type", "device", "channel", "gain", "full_scale_g", "limi
 
 def _require_mapping(value, *, source: str, key: str) -> dict:
     if not isinstance(value, dict):
-        raise EffectError(f"expected a mapping, got {type(value).__name__} {value!r}", source=source, key=key)
+        raise EffectError(f"expected a mapping, got {type(value).__name__} {preview(value)}", source=source, key=key)
     return value
 
 
 def _str(value, *, source, key) -> str:
     if not isinstance(value, str) or not value.strip():
-        raise EffectError(f"expected a non-empty string, got {value!r}", source=source, key=key)
+        raise EffectError(f"expected a non-empty string, got {preview(value)}", source=source, key=key)
     return value
 
 
 def _number(value, *, source, key, minimum=None, maximum=None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise EffectError(f"expected a number, got {type(value).__name__} {value!r}", source=source, key=key)
+        raise EffectError(f"expected a number, got {type(value).__name__} {preview(value)}", source=source, key=key)
+    if isinstance(value, int) and abs(value) > 1e300:
+        raise EffectError(f"expected a number of ordinary size, got {preview(value)}", source=source, key=key)
     if not math.isfinite(value):
-        raise EffectError(f"expected a finite number, got {value!r}", source=source, key=key)
+        raise EffectError(f"expected a finite number, got {preview(value)}", source=source, key=key)
     if minimum is not None and value < minimum:
         raise EffectError(f"must be >= {minimum}, got {value}", source=source, key=key)
     if maximum is not None and value > maximum:
@@ -170,7 +211,7 @@ def _object(value, *, source) -> tuple[str, ObjectInfo | None]:
     raw = dict(_require_mapping(value, source=source, key="object"))
     dims = raw.pop("dimensions_mm", (0.0, 0.0, 0.0))
     if not isinstance(dims, (list, tuple)) or len(dims) != 3:
-        raise EffectError(f"expected [width, height, depth] in mm, got {dims!r}", source=source, key="object.dimensions_mm")
+        raise EffectError(f"expected [width, height, depth] in mm, got {preview(dims)}", source=source, key="object.dimensions_mm")
     dims = tuple(_number(d, source=source, key="object.dimensions_mm", minimum=0.0, maximum=1e5) for d in dims)
     p = parse_params(ObjectParams, raw, source=source, key="object")
     return p.id, ObjectInfo(p.id, p.name or p.id, p.mass_kg, dims, p.material)
@@ -184,10 +225,10 @@ def parse_actuator_section(raw: Any, *, source: str, key: str = "actuator") -> A
     core = {k: act_raw.pop(k) for k in ACTUATOR_CORE_KEYS if k in act_raw}
     device = core.get("device")
     if device is not None and (isinstance(device, bool) or not isinstance(device, (str, int))):
-        raise EffectError(f"expected a device name or index, got {device!r}", source=source, key=f"{key}.device")
+        raise EffectError(f"expected a device name or index, got {preview(device)}", source=source, key=f"{key}.device")
     channel = core.get("channel")
     if channel is not None and (isinstance(channel, bool) or not isinstance(channel, int) or channel < 0):
-        raise EffectError(f"expected a channel number >= 0, got {channel!r}", source=source, key=f"{key}.channel")
+        raise EffectError(f"expected a channel number >= 0, got {preview(channel)}", source=source, key=f"{key}.channel")
     gain = core.get("gain")
     if gain is not None:
         gain = _number(gain, source=source, key=f"{key}.gain", minimum=0.0, maximum=1.0)
@@ -207,14 +248,14 @@ def effect_from_mapping(data: Any, *, source: str, base_dir: Path) -> Effect:
         raise EffectError("the file is empty; an effect needs name, object, model and actuator", source=source)
     unknown = [k for k in data if k not in TOP_KEYS]
     if unknown:
-        raise EffectError(f"unknown key {unknown[0]!r}; allowed: {', '.join(TOP_KEYS)}", source=source, key="(top level)")
+        raise EffectError(f"unknown key {preview(unknown[0])}; allowed: {', '.join(TOP_KEYS)}", source=source, key="(top level)")
     for required in ("name", "object", "model", "actuator"):
         if required not in data:
-            raise EffectError(f"required key {required!r} is missing", source=source, key="(top level)")
+            raise EffectError(f"required key {preview(required)} is missing", source=source, key="(top level)")
     name = _str(data["name"], source=source, key="name")
     description = data.get("description", "")
     if not isinstance(description, str):
-        raise EffectError(f"expected a string, got {description!r}", source=source, key="description")
+        raise EffectError(f"expected a string, got {preview(description)}", source=source, key="description")
     object_id, info = _object(data["object"], source=source)
     velocity = _number(data.get("velocity_mps", 3.0), source=source, key="velocity_mps", minimum=0.0, maximum=100.0)
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, get_args, get_origin
 
-from .errors import EffectError
+from .errors import EffectError, preview
 from .objects import ObjectInfo
 
 
@@ -65,11 +65,11 @@ def _coerce(value: Any, tp, where: str, source: str):
                 return _coerce(value, arg, where, source)
             except EffectError:
                 continue
-        raise EffectError(f"expected {_type_name(tp)}, got {value!r}", source=source, key=where)
+        raise EffectError(f"expected {_type_name(tp)}, got {preview(value)}", source=source, key=where)
     if origin is Literal:
         if value in get_args(tp) and type(value) is type(next(a for a in get_args(tp) if a == value)):
             return value
-        raise EffectError(f"expected {_type_name(tp)}, got {value!r}", source=source, key=where)
+        raise EffectError(f"expected {_type_name(tp)}, got {preview(value)}", source=source, key=where)
     if tp is dict:
         if isinstance(value, dict) and all(isinstance(k, str) for k in value):
             return dict(value)
@@ -77,19 +77,21 @@ def _coerce(value: Any, tp, where: str, source: str):
         if isinstance(value, bool):
             return value
     elif tp is int:
-        if isinstance(value, int) and not isinstance(value, bool):
+        if isinstance(value, int) and not isinstance(value, bool) and abs(value) <= 2**63:
             return value
     elif tp is float:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if isinstance(value, int) and abs(value) > 1e300:
+                raise EffectError(f"expected a number of ordinary size, got {preview(value)}", source=source, key=where)
             if not math.isfinite(value):
-                raise EffectError(f"expected a finite number, got {value!r}", source=source, key=where)
+                raise EffectError(f"expected a finite number, got {preview(value)}", source=source, key=where)
             return float(value)
     elif tp is str:
         if isinstance(value, str):
             return value
     else:
-        raise TypeError(f"unsupported Params field type {tp!r} at {where}")
-    raise EffectError(f"expected {_type_name(tp)}, got {type(value).__name__} {value!r}", source=source, key=where)
+        raise TypeError(f"unsupported Params field type {preview(tp)} at {where}")
+    raise EffectError(f"expected {_type_name(tp)}, got {type(value).__name__} {preview(value)}", source=source, key=where)
 
 
 def parse_params(cls: type, mapping: Any, *, source: str, key: str):
@@ -103,13 +105,13 @@ def parse_params(cls: type, mapping: Any, *, source: str, key: str):
     unknown = [k for k in mapping if k not in fields]
     if unknown:
         allowed = ", ".join(fields) or "none"
-        raise EffectError(f"unknown key {unknown[0]!r}; allowed: {allowed}", source=source, key=key)
+        raise EffectError(f"unknown key {preview(unknown[0])}; allowed: {allowed}", source=source, key=key)
     values = {}
     for name, f in fields.items():
         where = f"{key}.{name}"
         if name not in mapping:
             if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
-                raise EffectError(f"required key {name!r} is missing", source=source, key=key)
+                raise EffectError(f"required key {preview(name)} is missing", source=source, key=key)
             continue
         value = _coerce(mapping[name], hints[name], where, source)
         if isinstance(value, (int, float)) and not isinstance(value, bool):

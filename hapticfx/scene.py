@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from .effect import ActuatorSection, Effect, effect_from_mapping, parse_actuator_section, read_yaml
-from .errors import EffectError
+from .errors import EffectError, preview
 from .params import doc, parse_params
 
 TOP_KEYS = ("name", "description", "actuators", "effects", "events", "engine")
@@ -93,28 +93,28 @@ def _rekey(exc: EffectError, *, source: str, prefix: str) -> EffectError:
 
 def _channel(value: Any, *, source: str, key: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise EffectError(f"expected a channel number >= 0, got {value!r}", source=source, key=key)
+        raise EffectError(f"expected a channel number >= 0, got {preview(value)}", source=source, key=key)
     return value
 
 
 def _entry(object_id: Any, raw: Any, *, source: str, base_dir: Path, actuators: dict[str, ActuatorSection]) -> SceneEntry:
     key = f"effects.{object_id}"
     if not isinstance(object_id, str) or not object_id.strip() or len(object_id) > 200:
-        raise EffectError(f"object ids are non-empty strings, got {object_id!r}", source=source, key="effects")
+        raise EffectError(f"object ids are non-empty strings, got {preview(object_id)}", source=source, key="effects")
     if isinstance(raw, str):
         raw = {"effect": raw}
     if not isinstance(raw, dict):
         raise EffectError(
-            f"expected an effect file path or a mapping with {', '.join(ENTRY_KEYS)}, got {raw!r}", source=source, key=key
+            f"expected an effect file path or a mapping with {', '.join(ENTRY_KEYS)}, got {preview(raw)}", source=source, key=key
         )
     unknown = [k for k in raw if k not in ENTRY_KEYS]
     if unknown:
-        raise EffectError(f"unknown key {unknown[0]!r}; allowed: {', '.join(ENTRY_KEYS)}", source=source, key=key)
+        raise EffectError(f"unknown key {preview(unknown[0])}; allowed: {', '.join(ENTRY_KEYS)}", source=source, key=key)
     if ("effect" in raw) == ("inline" in raw):
         raise EffectError("give exactly one of 'effect' (a file) or 'inline' (an effect mapping)", source=source, key=key)
     if "effect" in raw:
         if not isinstance(raw["effect"], str) or not raw["effect"].strip():
-            raise EffectError(f"expected a file path, got {raw['effect']!r}", source=source, key=f"{key}.effect")
+            raise EffectError(f"expected a file path, got {preview(raw['effect'])}", source=source, key=f"{key}.effect")
         path = Path(raw["effect"]).expanduser()
         path = path if path.is_absolute() else base_dir / path
         effect = effect_from_mapping(read_yaml(path), source=str(path), base_dir=path.resolve().parent)
@@ -130,7 +130,7 @@ def _entry(object_id: Any, raw: Any, *, source: str, base_dir: Path, actuators: 
         name = raw["actuator"]
         if name not in actuators:
             raise EffectError(
-                f"unknown actuator {name!r}; the scene's actuators: {', '.join(actuators) or 'none'}",
+                f"unknown actuator {preview(name)}; the scene's actuators: {', '.join(actuators) or 'none'}",
                 source=source, key=f"{key}.actuator",
             )
         effect = dataclasses.replace(effect, actuator=actuators[name])
@@ -150,20 +150,20 @@ def scene_from_mapping(data: Any, *, source: str, base_dir: Path) -> Scene:
         raise EffectError(f"expected a mapping, got {type(data).__name__}", source=source, key="(top level)")
     unknown = [k for k in data if k not in TOP_KEYS]
     if unknown:
-        raise EffectError(f"unknown key {unknown[0]!r}; allowed: {', '.join(TOP_KEYS)}", source=source, key="(top level)")
+        raise EffectError(f"unknown key {preview(unknown[0])}; allowed: {', '.join(TOP_KEYS)}", source=source, key="(top level)")
     for required in ("name", "effects"):
         if required not in data:
-            raise EffectError(f"required key {required!r} is missing", source=source, key="(top level)")
+            raise EffectError(f"required key {preview(required)} is missing", source=source, key="(top level)")
     name = data["name"]
     if not isinstance(name, str) or not name.strip():
-        raise EffectError(f"expected a non-empty string, got {name!r}", source=source, key="name")
+        raise EffectError(f"expected a non-empty string, got {preview(name)}", source=source, key="name")
     description = data.get("description", "")
     if not isinstance(description, str):
-        raise EffectError(f"expected a string, got {description!r}", source=source, key="description")
+        raise EffectError(f"expected a string, got {preview(description)}", source=source, key="description")
 
     raw_actuators = data.get("actuators") or {}
     if not isinstance(raw_actuators, dict):
-        raise EffectError(f"expected a mapping of name -> actuator, got {raw_actuators!r}", source=source, key="actuators")
+        raise EffectError(f"expected a mapping of name -> actuator, got {preview(raw_actuators)}", source=source, key="actuators")
     actuators = {
         str(n): parse_actuator_section(a, source=source, key=f"actuators.{n}") for n, a in raw_actuators.items()
     }
@@ -177,10 +177,10 @@ def scene_from_mapping(data: Any, *, source: str, base_dir: Path) -> Scene:
 
     events = data.get("events") or {}
     if not isinstance(events, dict):
-        raise EffectError(f"expected a mapping, got {events!r}", source=source, key="events")
+        raise EffectError(f"expected a mapping, got {preview(events)}", source=source, key="events")
     unknown = [k for k in events if k != "osc"]
     if unknown:
-        raise EffectError(f"unknown event source {unknown[0]!r}; allowed: osc", source=source, key="events")
+        raise EffectError(f"unknown event source {preview(unknown[0])}; allowed: osc", source=source, key="events")
     osc = parse_params(OscSettings, events["osc"], source=source, key="events.osc") if "osc" in events else None
     engine = parse_params(EngineSettings, data.get("engine"), source=source, key="engine")
     return Scene(name, source, entries, osc, engine, description)

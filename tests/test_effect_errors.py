@@ -52,8 +52,8 @@ CASES = [
      "{f}: actuator.type: unknown actuator 'rumble-pak'; installed: "),
     ("python object tag",
      GOOD.replace("velocity_mps: 3.8", "velocity_mps: !!python/object/apply:os.system ['true']"),
-     "{f}: line 3: tag 'tag:yaml.org,2002:python/object/apply:os.system' is not allowed "
-     "(effect files hold plain mappings, lists, strings and numbers)"),
+     "{f}: invalid YAML: line 3, column 15: tag 'tag:yaml.org,2002:python/object/apply:os.system' is not allowed "
+     "(these files hold plain mappings, lists, strings and numbers)"),
     ("duplicate key",
      GOOD + "velocity_mps: 4.0\n",
      "{f}: line 10: duplicate key 'velocity_mps' (first at line 3)"),
@@ -135,3 +135,40 @@ def test_validate_reports_each_file(write_effect):
     assert r.returncode == 2
     assert f"ok: {good}" in r.stdout
     assert r.stderr.strip() == f"hapticfx: error: {bad}: actuator.gain: must be <= 1.0, got 2"
+
+
+HOSTILE = {  # what a careless user or an attacker puts in an effect file -> the one line that says so
+    "control character": ("name: \x06\n", "invalid YAML: unacceptable character #x0006"),
+    "explicit int tag": ("name: !!int abc\n", "tag 'tag:yaml.org,2002:int' is not allowed"),
+    "explicit bool tag": ("name: !!bool abc\n", "tag 'tag:yaml.org,2002:bool' is not allowed"),
+    "timestamp tag": ("name: !!timestamp x\n", "tag 'tag:yaml.org,2002:timestamp' is not allowed"),
+    "400-digit integer": (GOOD.replace("velocity_mps: 3.8", "velocity_mps: " + "9" * 400),
+                          "velocity_mps: expected a number of ordinary size, got 9999999999...99999999999"),
+    "list as a mapping key": ("? [a, b]\n: 1\n", "line 1: a mapping key must be a string or a number, got list"),
+    "deep nesting": ("name: " + "[" * 200 + "]" * 200 + "\n", "nested deeper than 32 levels"),
+    "alias bomb": ("a0: &a0 [x, x, x, x, x, x, x, x, x]\n"
+                   + "".join(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]\n" for i in range(1, 9)) + "name: *a8\n",
+                   "more than 64 aliases"),
+    "huge list in a value": ("name: x\nobject: [" + ", ".join(["1"] * 5000) + "]\nmodel: {type: x}\nactuator: {type: x}\n",
+                             "object: expected a mapping, got list [1, 1, 1, 1, ...]"),
+}
+
+
+@pytest.mark.parametrize("label", list(HOSTILE))
+def test_hostile_effect_files_give_one_short_line(tmp_path, label):
+    text, expected = HOSTILE[label]
+    path = tmp_path / "e.yaml"
+    path.write_text(text)
+    with pytest.raises(EffectError) as info:
+        load_effect(path)
+    message = str(info.value)
+    assert expected in message and "\n" not in message and len(message) < 300, message
+
+
+def test_long_paths_and_large_files_are_refused_in_one_line(tmp_path):
+    with pytest.raises(EffectError, match="cannot read: File name too long"):
+        load_effect(tmp_path / ("x" * 300 + ".yaml"))
+    big = tmp_path / "big.yaml"
+    big.write_text("# padding\n" * 200_000)
+    with pytest.raises(EffectError, match=r"big.yaml: \d+ bytes; a YAML file here holds at most 1048576"):
+        load_effect(big)
