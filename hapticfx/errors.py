@@ -63,7 +63,17 @@ class DatasetError(HapticfxError):
 
 
 class DeviceError(HapticfxError):
-    """An actuator device is absent, failed or timed out."""
+    """An actuator device failed, timed out, or cannot be used as configured."""
+
+
+class DeviceUnavailable(DeviceError):
+    """The device is not on this machine (no sound server, no output, no serial port).
+
+    ``hapticfx play`` falls back to a WAV and PNG file for this error only: a device
+    that is there but faulty is an error, not a reason to pretend it played.
+    """
+
+
 
 
 class CheckpointError(HapticfxError):

@@ -77,13 +77,13 @@ def deviceless_plugin(tmp_path):
     fake_distribution(site, dist="hfx-absent", version="0.1", entry_point="absent", module="hfx_absent", source='''
         from hapticfx.hookspecs import hookimpl
         from hapticfx.actuators.virtual import MemoryActuator
-        from hapticfx.errors import DeviceError
+        from hapticfx.errors import DeviceUnavailable
 
         class Absent(MemoryActuator):
             """An actuator whose device is never there."""
             name = "absent"
             def open(self):
-                raise DeviceError("no audio output device found")
+                raise DeviceUnavailable("no audio output device found")
 
         @hookimpl
         def register_actuators(register):

@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import DeviceError, HapticfxError
+from ..errors import DeviceUnavailable, HapticfxError
 
 VELOCITY_HELP = "Impact velocity in m/s (default: the effect's velocity_mps)."
 OBJECT_HELP = "Object id (default: the effect's object)."
@@ -67,7 +67,7 @@ def play(
     pipeline = Pipeline.from_effect(effect, device=dev)
     try:
         pipeline.open()
-    except DeviceError as exc:
+    except DeviceUnavailable as exc:
         if dev is not None:
             raise
         stem = f"hapticfx-{pipeline.effect.name}-{(velocity if velocity is not None else pipeline.effect.velocity_mps):.2f}mps"

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from hapticfx.errors import DeviceError
+from hapticfx.errors import DeviceError, DeviceUnavailable
 from hapticfx.interfaces import Actuator, ActuatorSpec, SafetyLimits
 from hapticfx.signal import Signal, valid_number
 
@@ -124,7 +124,7 @@ class SolenoidActuator(Actuator):
         if self._link is not None:
             return
         if not self.port:
-            raise DeviceError("solenoid has no serial port: set the effect's actuator.port or device, "
+            raise DeviceUnavailable("solenoid has no serial port: set the effect's actuator.port or device, "
                               "or pass --device (e.g. /dev/ttyACM0, or 'emulator')")
         port = self.port
         if port == EMULATOR_PORT:

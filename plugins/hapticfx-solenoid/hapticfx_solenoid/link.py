@@ -6,9 +6,10 @@ becomes a one-line :class:`hapticfx.errors.DeviceError` naming the port.
 
 from __future__ import annotations
 
+import os
 import time
 
-from hapticfx.errors import DeviceError
+from hapticfx.errors import DeviceError, DeviceUnavailable
 
 from .protocol import DEFAULT_BAUD, MAX_LINE, decode_line, parse_pong
 
@@ -51,7 +52,9 @@ class SerialLink:
             self._serial.reset_input_buffer()
         except (*_port_failures(), ValueError) as exc:
             self.close()
-            raise DeviceError(f"cannot open serial port: {exc}", source=self.port) from None
+            absent = "://" not in self.port and not os.path.exists(self.port)
+            raise (DeviceUnavailable if absent else DeviceError)(f"cannot open serial port: {exc}",
+                                                                 source=self.port) from None
         try:
             # The leading newline ends whatever half line the board may hold; it ignores empty lines.
             return parse_pong(self.request("\nPING", what="PING"), source=self.port)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hapticfx.errors import DeviceError
+from hapticfx.errors import DeviceError, DeviceUnavailable
 
 
 def import_sounddevice():
@@ -12,7 +12,7 @@ def import_sounddevice():
     try:
         import sounddevice
     except OSError as exc:  # raised when libportaudio is not installed
-        raise DeviceError(
+        raise DeviceUnavailable(
             f"the PortAudio library is missing ({exc}); install it, e.g. apt-get install libportaudio2"
         ) from None
     return sounddevice
@@ -66,18 +66,18 @@ def resolve_device(device: str | int | None) -> OutputDevice:
         index = _default_output(sd)
         found = [d for d in devices if d.index == index]
         if not found:
-            raise DeviceError(f"there is no default sound output device; outputs: {_listing(devices)}")
+            raise DeviceUnavailable(f"there is no default sound output device; outputs: {_listing(devices)}")
         return found[0]
     if isinstance(device, int) or (isinstance(device, str) and device.strip().isdigit()):
         index = int(device)
         found = [d for d in devices if d.index == index]
         if not found:
-            raise DeviceError(f"no sound output device with index {index}; outputs: {_listing(devices)}")
+            raise DeviceUnavailable(f"no sound output device with index {index}; outputs: {_listing(devices)}")
         return found[0]
     exact = [d for d in devices if d.name == device]
     found = exact or [d for d in devices if str(device).lower() in d.name.lower()]
     if not found:
-        raise DeviceError(f"no sound output device matches {device!r}; outputs: {_listing(devices)}")
+        raise DeviceUnavailable(f"no sound output device matches {device!r}; outputs: {_listing(devices)}")
     if len(found) > 1:
         raise DeviceError(f"{device!r} matches several outputs ({_listing(found)}); give the index")
     return found[0]
