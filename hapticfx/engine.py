@@ -25,7 +25,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import EffectError, HapticfxError
+from .errors import EffectError, HapticfxError, one_line
 from .interfaces import Actuator, Impact
 from .osc import ImpactMessage
 from .pipeline import Delivery, Pipeline
@@ -106,6 +106,7 @@ class Engine:
             ("submitted", "queued", "dropped_queue_full", "rendered", "failed", "cancelled", "callback_errors"), 0
         )
         self._errors: dict[str, int] = {}
+        self._close_errors: dict[str, str] = {}
         self._last: deque[Played] = deque(maxlen=keep_last)
         self._closed = False
         self._open_outputs()
@@ -242,6 +243,8 @@ class Engine:
         with self._lock:
             out = dict(self._counts)
             out["errors"] = dict(self._errors)
+            if self._close_errors:
+                out["close_errors"] = dict(self._close_errors)
             lat = np.array([p.latency_s for p in self._last])
         out["pending"] = out["queued"] - out["rendered"] - out["failed"] - out["cancelled"]  # queued or rendering
         if lat.size:
@@ -287,6 +290,8 @@ class Engine:
                 out.actuator.close()
             except Exception as exc:  # close every actuator even if one fails
                 log.warning("closing %s failed: %s", out.actuator.describe(), exc)
+                with self._lock:
+                    self._close_errors[out.actuator.describe()] = one_line(str(exc), 200)
         return self.stats()
 
     def _cancel_pending(self) -> None:

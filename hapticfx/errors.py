@@ -74,7 +74,5 @@ class DeviceUnavailable(DeviceError):
     """
 
 
-
-
 class CheckpointError(HapticfxError):
     """Model weights are missing, corrupt, or built for something else."""

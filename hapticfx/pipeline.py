@@ -58,7 +58,8 @@ class Pipeline:
         device_actuator: Actuator = self.plan.actuator_cls(self.plan.actuator_params, context)
         if virtual:
             cls, path = virtual
-            params = cls.Params(path=str(Path(path).expanduser())) if cls is WavActuator else cls.Params()
+            # A file named on the command line or in code is the caller's explicit choice (the CLI asks for --force).
+            params = cls.Params(path=str(Path(path).expanduser()), overwrite=True) if cls is WavActuator else cls.Params()
             self.actuator: Actuator = cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
         else:
             self.actuator = device_actuator

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.io import wavfile
+from hapticfx.actuators.files import read_wav
 
 from hfx_testdata import fake_distribution
 
@@ -28,8 +28,8 @@ def test_play_to_wav_writes_non_silent_file_at_actuator_rate(tmp_path, write_eff
     out = tmp_path / "brick.wav"
     r = hfx("play", effect, "--device", f"wav:{out}")
     assert r.returncode == 0, r.stderr
-    rate, data = wavfile.read(out)
-    assert rate == 48000 and data.dtype == np.float32
+    rate, data = read_wav(out)
+    assert rate == 48000 and data.shape[0] == 1
     assert np.max(np.abs(data)) > 0.05
     assert f"WAV file {out}" in r.stdout
 
@@ -101,7 +101,7 @@ def test_play_without_device_writes_wav_and_png(tmp_path, write_effect, devicele
     assert lines[0].startswith("no output device (no audio output device found); wrote the impact to "
                                "hapticfx-brick-ke-3.80mps.wav and hapticfx-brick-ke-3.80mps.png instead")
     assert "--device wav:PATH" in lines[0]
-    rate, data = wavfile.read(tmp_path / "hapticfx-brick-ke-3.80mps.wav")
+    rate, data = read_wav(tmp_path / "hapticfx-brick-ke-3.80mps.wav")
     assert rate == 48000 and np.max(np.abs(data)) > 0.05
     assert (tmp_path / "hapticfx-brick-ke-3.80mps.png").stat().st_size > 1000
 

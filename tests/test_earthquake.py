@@ -57,14 +57,15 @@ def demo_run(tmp_path_factory):
 
 
 def test_demo_writes_wav_log_json_png(demo_run):
-    from scipy.io import wavfile
+    from hapticfx.actuators.files import read_wav
 
     out, summary = demo_run
     for name in ("earthquake.wav", "events.log", "events.json", "earthquake.png"):
         assert (out / name).stat().st_size > 0
     assert (out / "earthquake.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((out / "events.json").read_text())["impacts"] == summary["impacts"]
-    rate, wav = wavfile.read(out / "earthquake.wav")
+    rate, wav = read_wav(out / "earthquake.wav")
+    wav = wav[0]
     assert rate == summary["output"]["rate_hz"]
     assert wav.shape == (int(12.0 * rate),)
     assert np.all(np.isfinite(wav)) and np.max(np.abs(wav)) <= 1.0

@@ -190,7 +190,7 @@ def test_close_gives_up_on_a_stuck_render_after_its_timeout(tmp_path, registry):
 
 
 def test_wav_output_is_written_when_the_engine_closes(tmp_path, registry):
-    from scipy.io import wavfile
+    from hapticfx.actuators.files import read_wav
 
     path = scene(tmp_path)
     with Engine(path, device=f"wav:{tmp_path / 'out.wav'}", registry=registry) as engine:
@@ -199,9 +199,9 @@ def test_wav_output_is_written_when_the_engine_closes(tmp_path, registry):
     # two outputs (the shared helmet and the frame's own): one file each
     files = sorted(p.name for p in tmp_path.glob("out-*.wav"))
     assert files == ["out-actuators_helmet_0.wav", "out-frame.wav"]
-    rate, data = wavfile.read(tmp_path / "out-frame.wav")  # the frame's own memory actuator: 48 kHz
+    rate, data = read_wav(tmp_path / "out-frame.wav")  # the frame's own memory actuator: 48 kHz
     assert rate == 48000 and data.size == 9600 and np.isfinite(data).all()
-    rate, data = wavfile.read(tmp_path / "out-actuators_helmet_0.wav")
+    rate, data = read_wav(tmp_path / "out-actuators_helmet_0.wav")
     assert rate == 2000 and data.size == 400
 
 

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
 from pythonosc.osc_message_builder import OscMessageBuilder
-from scipy.io import wavfile
+from hapticfx.actuators.files import read_wav
 
 SCENE = """
 name: flood
@@ -144,7 +144,8 @@ def test_flood_of_malformed_datagrams_then_a_valid_impact_is_rendered(tmp_path):
     assert {k: v for k, v in bridge["dropped"].items() if v} == expected
     assert bridge["accepted"] == 1
     assert engine["rendered"] == 1 and engine["failed"] == 0
-    rate, samples = wavfile.read(server.wav)
+    rate, samples = read_wav(server.wav)
+    samples = samples[0]
     assert rate == 8000 and samples.size > 0 and np.all(np.isfinite(samples))
     assert 0 < np.max(np.abs(samples)) <= 1.0
 

@@ -1,30 +1,174 @@
-"""Writers for rendered signals: WAV and CSV, both atomic."""
+"""Writers for rendered signals: WAV (streamed, PCM by default) and CSV, both atomic.
+
+Every WAV hapticfx writes names its software in a ``LIST/INFO/ISFT`` chunk, and
+every PNG in a ``Software`` text chunk, so that an output path holding a file
+hapticfx did not write is not replaced without an explicit ``--force`` /
+``overwrite: true`` (:func:`check_overwrite`).
+"""
 
 from __future__ import annotations
 
+import os
 import struct
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..atomic import atomic_path
-from ..errors import DeviceError
+from ..errors import DeviceError, HapticfxError
+
+SOFTWARE = b"hapticfx"
+WAV_FORMATS = {"pcm16": (1, 2), "pcm24": (1, 3), "float32": (3, 4)}  # name: (WAVE format tag, bytes per sample)
+DEFAULT_WAV_FORMAT = "pcm24"
 
 
-def write_wav(path: Path, samples: np.ndarray, rate_hz: float) -> Path:
-    """Write normalised samples (time last; channels first if 2D) as 32-bit float WAV, atomically."""
-    data = np.atleast_2d(np.asarray(samples, dtype="<f4"))
-    if abs(rate_hz - round(rate_hz)) > 1e-6:
-        raise DeviceError(f"{path}: WAV needs an integer sample rate, got {rate_hz}")
-    channels, rate = data.shape[0], int(round(rate_hz))
-    payload = np.ascontiguousarray(data.T).tobytes()
-    fmt = struct.pack("<HHIIHH", 3, channels, rate, rate * channels * 4, channels * 4, 32)  # 3 = IEEE float
-    header = b"RIFF" + struct.pack("<I", 4 + 8 + len(fmt) + 8 + len(payload)) + b"WAVE"
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as f:
-            f.write(header + b"fmt " + struct.pack("<I", len(fmt)) + fmt + b"data" + struct.pack("<I", len(payload)))
-            f.write(payload)
-    return Path(path)
+def written_by_hapticfx(path: Path) -> bool:
+    """Whether ``path`` is a WAV or PNG file that carries hapticfx's software tag."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return False
+    if head[:4] == b"RIFF" and head[8:12] == b"WAVE":
+        return b"ISFT" in head and SOFTWARE in head[head.index(b"ISFT"):head.index(b"ISFT") + 32]
+    if head[:8] == b"\x89PNG\r\n\x1a\n":
+        return b"tEXtSoftware\x00" + SOFTWARE in head
+    return False
+
+
+def check_overwrite(path: Path, *, force: bool, option: str = "--force") -> None:
+    """Refuse to replace an existing file that hapticfx did not write, unless ``force``."""
+    path = Path(path)
+    if path.exists() and not force and not (path.is_file() and written_by_hapticfx(path)):
+        raise HapticfxError(f"{path}: exists and was not written by hapticfx; use {option} to replace it")
+
+
+def _encode(samples: np.ndarray, fmt: str) -> bytes:
+    """Interleaved little-endian frames of ``samples`` (channels, N) in ``fmt``."""
+    x = np.clip(np.ascontiguousarray(samples.T), -1.0, 1.0)
+    if fmt == "float32":
+        return x.astype("<f4").tobytes()
+    if fmt == "pcm16":
+        return np.round(x * 32767.0).astype("<i2").tobytes()
+    ints = np.round(x * 8388607.0).astype("<i4")
+    return ints.view(np.uint8).reshape(-1, 4)[:, :3].tobytes()  # the low three bytes of each sample
+
+
+class WavWriter:
+    """Streams frames into a temporary file beside ``path``; :meth:`close` moves it into place whole.
+
+    Nothing partial ever appears at ``path``: a failure (disk full, read-only
+    directory) raises :class:`DeviceError` and removes the temporary file.
+    """
+
+    def __init__(self, path: Path, rate_hz: float, channels: int = 1, *, fmt: str = DEFAULT_WAV_FORMAT):
+        if fmt not in WAV_FORMATS:
+            raise DeviceError(f"unknown WAV format {fmt!r}; one of: {', '.join(WAV_FORMATS)}")
+        if abs(rate_hz - round(rate_hz)) > 1e-6:
+            raise DeviceError(f"{path}: WAV needs an integer sample rate, got {rate_hz}")
+        self.path, self.fmt, self.channels = Path(path), fmt, int(channels)
+        self.rate = int(round(rate_hz))
+        self.frames = 0
+        tag, width = WAV_FORMATS[fmt]
+        fmt_chunk = struct.pack("<HHIIHH", tag, self.channels, self.rate, self.rate * self.channels * width,
+                                self.channels * width, 8 * width)
+        info = b"INFO" + b"ISFT" + struct.pack("<I", 10) + SOFTWARE + b"\x00\x00"
+        self._header = (b"fmt " + struct.pack("<I", len(fmt_chunk)) + fmt_chunk
+                        + b"LIST" + struct.pack("<I", len(info)) + info)
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
+        except OSError as exc:
+            raise DeviceError(f"{self.path}: cannot write: {exc.strerror}") from None
+        self._tmp = Path(tmp)
+        self._file = os.fdopen(fd, "wb")
+        self._write(self._riff(0))
+
+    def _riff(self, data_bytes: int) -> bytes:
+        return (b"RIFF" + struct.pack("<I", 4 + len(self._header) + 8 + data_bytes) + b"WAVE" + self._header
+                + b"data" + struct.pack("<I", data_bytes))
+
+    def _write(self, data: bytes) -> None:
+        try:
+            self._file.write(data)
+        except OSError as exc:
+            self.abort()
+            raise DeviceError(f"{self.path}: cannot write: {exc.strerror}") from None
+
+    def write(self, samples: np.ndarray) -> None:
+        """Append ``samples`` (channels, N) or (N,), normalised to [-1, 1]."""
+        block = np.atleast_2d(np.asarray(samples, dtype=np.float64))
+        if block.shape[0] != self.channels:
+            raise DeviceError(f"{self.path}: {block.shape[0]} channels, the file has {self.channels}")
+        self._write(_encode(block, self.fmt))
+        self.frames += block.shape[1]
+
+    def close(self) -> Path:
+        """Finish the header and move the file into place atomically."""
+        data_bytes = self.frames * self.channels * WAV_FORMATS[self.fmt][1]
+        try:
+            self._file.seek(0)
+            self._file.write(self._riff(data_bytes))
+            self._file.flush()
+            os.fsync(self._file.fileno())
+            self._file.close()
+            os.chmod(self._tmp, 0o666 & ~_umask())
+            os.replace(self._tmp, self.path)
+        except OSError as exc:
+            self.abort()
+            raise DeviceError(f"{self.path}: cannot write: {exc.strerror}") from None
+        return self.path
+
+    def abort(self) -> None:
+        """Drop what was written; ``path`` is left as it was."""
+        try:
+            self._file.close()
+        except OSError:
+            pass
+        self._tmp.unlink(missing_ok=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def write_wav(path: Path, samples: np.ndarray, rate_hz: float, *, fmt: str = DEFAULT_WAV_FORMAT) -> Path:
+    """Write normalised samples (time last; channels first if 2D) as a WAV file, atomically (24-bit PCM)."""
+    data = np.atleast_2d(np.asarray(samples, dtype=np.float64))
+    writer = WavWriter(Path(path), rate_hz, data.shape[0], fmt=fmt)
+    writer.write(data)
+    return writer.close()
+
+
+def read_wav(path: Path) -> tuple[int, np.ndarray]:
+    """``(rate_hz, samples)`` of a PCM16, PCM24 or float32 WAV file, samples ``(channels, N)`` in [-1, 1]."""
+    data = Path(path).read_bytes()
+    if data[:4] != b"RIFF" or data[8:12] != b"WAVE":
+        raise HapticfxError(f"{path}: not a WAV file")
+    pos, fmt, payload = 12, None, None
+    while pos + 8 <= len(data):
+        cid, size = data[pos:pos + 4], struct.unpack("<I", data[pos + 4:pos + 8])[0]
+        body = data[pos + 8:pos + 8 + size]
+        if cid == b"fmt ":
+            fmt = struct.unpack("<HHIIHH", body[:16])
+        elif cid == b"data":
+            payload = body
+        pos += 8 + size + (size & 1)
+    if fmt is None or payload is None:
+        raise HapticfxError(f"{path}: WAV file without fmt or data chunk")
+    tag, channels, rate, _, _, bits = fmt
+    if (tag, bits) == (3, 32):
+        x = np.frombuffer(payload, "<f4").astype(np.float64)
+    elif (tag, bits) == (1, 16):
+        x = np.frombuffer(payload, "<i2") / 32767.0
+    elif (tag, bits) == (1, 24):
+        b = np.frombuffer(payload, np.uint8).reshape(-1, 3).astype(np.int32)
+        x = ((b[:, 0] | (b[:, 1] << 8) | (b[:, 2] << 16)) << 8 >> 8) / 8388607.0
+    else:
+        raise HapticfxError(f"{path}: unsupported WAV format (tag {tag}, {bits} bits)")
+    return rate, x.reshape(-1, channels).T
 
 
 def write_csv(path: Path, columns: dict[str, np.ndarray]) -> Path:

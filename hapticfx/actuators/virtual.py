@@ -10,14 +10,15 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
-from ..errors import DeviceError
+from ..errors import DeviceError, HapticfxError
 from ..interfaces import Actuator, ActuatorSpec
 from ..params import BuildContext, doc
 from ..signal import Signal
-from .files import write_wav
+from .files import DEFAULT_WAV_FORMAT, WavWriter, check_overwrite
 
 
 def _plain_spec(rate_hz: float) -> ActuatorSpec:
@@ -50,10 +51,12 @@ class MemoryActuator(Actuator):
 
 
 class WavActuator(Actuator):
-    """Writes everything played to one WAV file, atomically, when closed.
+    """Writes everything played to one WAV file (24-bit PCM by default), streamed, moved into place on close.
 
-    Impacts played one after another are written back to back; nothing is
-    written if the program stops before ``close()``.
+    Impacts played one after another are written back to back as they come, so
+    memory stays bounded and a write failure is raised at once; the file appears
+    whole at ``close()`` or not at all. An existing file that hapticfx did not
+    write is kept unless ``overwrite`` is set.
     """
 
     name = "wav"
@@ -62,6 +65,9 @@ class WavActuator(Actuator):
     class Params:
         path: str | None = field(default=None, metadata=doc("output file; default: the device given on the command line"))
         rate_hz: float = field(default=48000.0, metadata=doc("output sample rate (Hz)", min=100.0, max=384000.0))
+        format: Literal["pcm16", "pcm24", "float32"] = field(
+            default=DEFAULT_WAV_FORMAT, metadata=doc("sample format: 16- or 24-bit PCM (read by every tool), or float"))
+        overwrite: bool = field(default=False, metadata=doc("replace an existing file that hapticfx did not write"))
 
     def __init__(self, params: "WavActuator.Params" = Params(), context: BuildContext = BuildContext(), *, spec: ActuatorSpec | None = None):
         target = params.path or (context.device if isinstance(context.device, str) else None)
@@ -69,26 +75,34 @@ class WavActuator(Actuator):
             raise DeviceError("the wav actuator needs a path (actuator.path, or --device wav:PATH)")
         path = Path(target).expanduser()
         self.path = path if path.is_absolute() else context.base_dir / path if params.path else path
+        self.params = params
         self.spec = spec or _plain_spec(params.rate_hz)
         self.limits = self.spec.limits
-        self._chunks: list[np.ndarray] = []
+        self._writer: WavWriter | None = None
         self._lock = threading.Lock()
 
     def open(self) -> None:
         if not self.path.parent.exists():
             raise DeviceError(f"{self.path}: directory {self.path.parent} does not exist")
+        try:
+            check_overwrite(self.path, force=self.params.overwrite, option="actuator.overwrite: true")
+        except HapticfxError as exc:
+            raise DeviceError(str(exc)) from None
 
     def play(self, signal: Signal) -> None:
         if abs(signal.rate_hz - self.spec.rate_hz) > 1e-6:
             raise DeviceError(f"wav actuator runs at {self.spec.rate_hz} Hz, got a signal at {signal.rate_hz} Hz")
+        block = np.atleast_2d(signal.samples)
         with self._lock:
-            self._chunks.append(np.atleast_2d(signal.samples))
+            if self._writer is None:
+                self._writer = WavWriter(self.path, self.spec.rate_hz, block.shape[0], fmt=self.params.format)
+            self._writer.write(block)
 
     def close(self) -> None:
         with self._lock:
-            if self._chunks:
-                write_wav(self.path, np.concatenate(self._chunks, axis=-1), self.spec.rate_hz)
-                self._chunks = []
+            writer, self._writer = self._writer, None
+            if writer is not None:
+                writer.close()
 
     def describe(self) -> str:
         return f"WAV file {self.path}"

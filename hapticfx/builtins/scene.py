@@ -14,6 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from ..errors import DeviceError
 from ..hookspecs import hookimpl
 
 # A physics-only scene for benchmarks: the paper's four objects, kinetic-energy model, one shared output.
@@ -270,6 +271,11 @@ def register_commands(app, bench):
         out = serve_scene(scene, host=host, port=port, device=device, stats_every=stats_every, duration=duration,
                           echo=lambda line: typer.echo(line, err=False) or sys.stdout.flush())
         typer.echo(json.dumps(out))
+        engine = out["engine"]
+        if engine.get("close_errors") or engine["failed"]:
+            lost = "; ".join(f"{k}: {v}" for k, v in {**engine["errors"], **engine.get("close_errors", {})}.items())
+            raise DeviceError(f"{engine['failed']} impact(s) failed and {len(engine.get('close_errors', {}))} "
+                              f"output(s) could not be finished ({lost})")
 
     @bench.command("serve")
     def bench_serve_cmd(

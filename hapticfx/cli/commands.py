@@ -21,11 +21,15 @@ def _device(value: Optional[str]):
     return int(value) if value.strip().isdigit() else value
 
 
-def _write_outputs(pipeline, delivery, out: Path) -> list[Path]:
+FORCE_HELP = "Replace an output file that hapticfx did not write (its own WAV and PNG files are replaced anyway)."
+
+
+def _write_outputs(pipeline, delivery, out: Path, *, force: bool) -> list[Path]:
     """Write a delivery to ``out`` by its suffix (.wav, .csv, .png); returns what was written."""
-    from ..actuators.files import write_csv, write_wav
+    from ..actuators.files import check_overwrite, write_csv, write_wav
     from .figures import impact_png
 
+    check_overwrite(out, force=force)
     suffix = out.suffix.lower()
     if suffix == ".wav":
         return [write_wav(out, delivery.output.samples, delivery.output.rate_hz)]
@@ -55,15 +59,20 @@ def play(
         help="Output device: a name or index for the effect's actuator, 'wav:PATH' to write a WAV file "
              "at the actuator's rate, or 'memory'. Default: the effect's device.",
     ),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):
     """Render one impact and play it on the effect's actuator.
 
     With no output device available (a headless machine), the impact is written to a WAV
     file and a PNG picture in the current directory instead, and their names are printed.
     """
-    from ..pipeline import Pipeline
+    from ..actuators.files import check_overwrite
+    from ..pipeline import Pipeline, stand_in
 
     dev = _device(device)
+    virtual = stand_in(dev)
+    if virtual and virtual[1]:
+        check_overwrite(Path(virtual[1]).expanduser(), force=force)
     pipeline = Pipeline.from_effect(effect, device=dev)
     try:
         pipeline.open()
@@ -73,8 +82,8 @@ def play(
         stem = f"hapticfx-{pipeline.effect.name}-{(velocity if velocity is not None else pipeline.effect.velocity_mps):.2f}mps"
         wav, png = Path(f"{stem}.wav"), Path(f"{stem}.png")
         delivery = pipeline.render(velocity=velocity, object=object)
-        _write_outputs(pipeline, delivery, wav)
-        _write_outputs(pipeline, delivery, png)
+        _write_outputs(pipeline, delivery, wav, force=force)
+        _write_outputs(pipeline, delivery, png, force=force)
         typer.echo(f"no output device ({exc}); wrote the impact to {wav} and {png} instead "
                    f"(choose a file with --device wav:PATH)")
         return
@@ -91,13 +100,14 @@ def render(
     out: Path = typer.Option(..., "--out", "-o", help="Output file: .wav (actuator signal), .csv (profile) or .png (both, plotted)."),
     velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help=VELOCITY_HELP),
     object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):
     """Render one impact to a file without touching any device."""
     from ..pipeline import Pipeline
 
     pipeline = Pipeline.from_effect(effect, device="memory")
     delivery = pipeline.render(velocity=velocity, object=object)
-    written = _write_outputs(pipeline, delivery, out)
+    written = _write_outputs(pipeline, delivery, out, force=force)
     typer.echo(_summary(pipeline, delivery, ", ".join(map(str, written))))
 
 

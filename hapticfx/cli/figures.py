@@ -35,6 +35,6 @@ def impact_png(path: Path, delivery, *, title: str, profile_units: str, volts_pe
     b.set_title(f"actuator signal at {out.rate_hz:g} Hz; {lim.summary()}")
     b.grid(alpha=0.3)
     with atomic_path(Path(path)) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=110, format="png", metadata={"Software": "hapticfx"})
     plt.close(fig)
     return Path(path)
