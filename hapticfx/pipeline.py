@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .actuators.virtual import MemoryActuator, WavActuator
 from .effect import Effect, Plan, check_effect, effective_limits, load_effect
-from .errors import DeviceError, EffectError
+from .errors import DeviceError, EffectError, HapticfxError
 from .interfaces import Actuator, Impact, Model
 from .params import BuildContext
 from .registry import Registry, get_registry
@@ -46,6 +46,16 @@ def stand_in(device: str | int | None) -> tuple[type, str | None] | None:
     return None
 
 
+def _located(build, effect: Effect, key: str):
+    """``build()``; a domain error that does not name its file is raised again naming the effect and ``key``."""
+    try:
+        return build()
+    except HapticfxError as exc:
+        if exc.source:
+            raise
+        raise type(exc)(str(exc), source=effect.source, key=key) from None
+
+
 class Pipeline:
     """Renders and plays impacts for one effect. Thread-safe; use as a context manager."""
 
@@ -54,8 +64,9 @@ class Pipeline:
         self.plan: Plan = check_effect(effect, registry=registry or get_registry())
         virtual = stand_in(device)
         context = effect.context(device=None if virtual else device)
-        self.model: Model = self.plan.model_cls(self.plan.model_params, context)
-        device_actuator: Actuator = self.plan.actuator_cls(self.plan.actuator_params, context)
+        self.model: Model = _located(lambda: self.plan.model_cls(self.plan.model_params, context), effect, "model")
+        device_actuator: Actuator = _located(lambda: self.plan.actuator_cls(self.plan.actuator_params, context),
+                                             effect, "actuator")
         if virtual:
             cls, path = virtual
             # A file named on the command line or in code is the caller's explicit choice (the CLI asks for --force).

@@ -172,3 +172,30 @@ def test_long_paths_and_large_files_are_refused_in_one_line(tmp_path):
     big.write_text("# padding\n" * 200_000)
     with pytest.raises(EffectError, match=r"big.yaml: \d+ bytes; a YAML file here holds at most 1048576"):
         load_effect(big)
+
+
+DD = """name: dd
+object: concrete-brick
+model: {type: data-driven, dataset: builtin:helmet-drops, interpolator: linear}
+actuator: {type: memory}
+"""
+
+
+@pytest.mark.parametrize("change, expected", [
+    (("interpolator: linear", "interpolator: spline"), "dd.yaml: model.interpolator: unknown interpolator 'spline'"),
+    (("builtin:helmet-drops", "builtin:nope"), "dd.yaml: model: no built-in dataset 'nope'"),
+    (("interpolator: linear}", "interpolator: linear, reducer: pca}"), "has banks for: dft321, max-min"),
+    (("object: concrete-brick", "object: banana"), "dataset 'helmet-drops' has no object 'banana'"),
+    (("interpolator: linear}", "interpolator: linear, interpolator_options: {grid: 1}}"),
+     "model.interpolator_options: unknown key 'grid' for interpolator 'linear'; allowed: none"),
+    (("interpolator: linear}", "interpolator: ensemble, interpolator_options: {trim: 2}}"),
+     "interpolator_options.trim must be <= 0.5, got 2.0"),
+    (("actuator: {type: memory}", "actuator: {type: memory, limits: {rms: 0.9}}"),
+     "actuator.limits: rms 0.9 would raise the actuator's hard limit 0.7"),
+])
+def test_validate_runs_every_check_play_runs(tmp_path, change, expected):
+    path = tmp_path / "dd.yaml"
+    path.write_text(DD.replace(*change))
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "validate", str(path)], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert expected in r.stderr, r.stderr

@@ -112,14 +112,15 @@ def render(
 
 
 def validate(files: list[Path] = typer.Argument(..., help="Effect files to check.")):
-    """Check effect files: keys, types, ranges, plugins and their parameters. Exit 2 if any fails."""
-    from ..effect import check_effect, load_effect
+    """Check effect files as `play` would, short of opening the device: keys, types, ranges, plugins and their
+    parameters, the dataset, object, reducer, interpolator and its options, weights or tables, and the limits
+    against the actuator's hard limits. Exit 2 if any fails."""
+    from ..pipeline import Pipeline
 
     failed = 0
     for file in files:
         try:
-            plan = check_effect(load_effect(file))
-            e = plan.effect
+            e = Pipeline.from_effect(file).effect
             typer.echo(f"ok: {file} (effect {e.name!r}: model {e.model.type}, actuator {e.actuator.type})")
         except HapticfxError as exc:
             failed += 1

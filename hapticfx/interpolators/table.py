@@ -59,6 +59,11 @@ def bank_digest(bank) -> str:
     return h.hexdigest()
 
 
+def _short(value) -> str:
+    """A value for a message; a digest is cut to its first 12 characters, which tell two apart."""
+    return repr(value[:12] + "...") if isinstance(value, str) and len(value) > 16 else repr(value)
+
+
 def _key(lower: Profile, upper: Profile) -> tuple:
     # Objects of one dataset often share their recorded velocities: the neighbours' samples tell them apart.
     return (float(lower.velocity), float(upper.velocity), hash(lower.samples.tobytes()), hash(upper.samples.tobytes()))
@@ -130,8 +135,8 @@ class VelocityTable:
         made = self.meta["source"]
         for key, value in source.items():
             if made.get(key) != value:
-                raise CheckpointError(f"{self.where}: stale: built for {key} {made.get(key)!r}, now {value!r}; "
-                                      f"{rebuild}")
+                raise CheckpointError(f"{self.where}: stale: built for {key} {_short(made.get(key))}, now "
+                                      f"{_short(value)}; {rebuild}")
 
     def attach(self, bank, *, rebuild: str) -> None:
         """Check that ``bank`` is the one this table was built from, and index its intervals for lookups."""
