@@ -80,9 +80,41 @@ def read_meta(path: Path) -> dict:
             raise CheckpointError(f"{exc} (version 1 networks predicted profiles, not residuals over the linear "
                                   "blend); retrain with `hapticfx train CONFIG.yaml`") from None
         raise
-    if not isinstance(meta.get("weights_sha256"), str):
-        raise CheckpointError(f"{meta_file}: no weights_sha256; not written by `hapticfx train`")
+    check_meta(meta, meta_file)
     return meta
+
+
+def check_meta(meta: dict, where: Path) -> None:
+    """Refuse metadata that would break (or exhaust) the network built from it, naming the key."""
+    import math
+    import re
+
+    from .config import ARCHS, MODEL_DEFAULTS, _check_model
+
+    src = str(where)
+
+    def need(key: str, ok: bool, expected: str) -> None:
+        if not ok:
+            raise CheckpointError(f"expected {expected}", source=src, key=key)
+
+    need("interpolator", meta.get("interpolator") in ARCHS, f"one of {', '.join(ARCHS)}")
+    model = meta.get("model")
+    need("model", isinstance(model, dict) and set(model) == set(MODEL_DEFAULTS[meta["interpolator"]]),
+         f"a mapping with {', '.join(MODEL_DEFAULTS[meta['interpolator']])}")
+    _check_model(model, src, error=CheckpointError)
+    n, steps = meta.get("n_samples"), meta.get("steps")
+    need("n_samples", isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= 100_000, "an integer in [1, 100000]")
+    need("steps", steps == model["steps"] and n % steps == 0, f"model.steps ({model['steps']}), dividing n_samples")
+    norm = meta.get("normalisation")
+    finite = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)  # noqa: E731
+    need("normalisation", isinstance(norm, dict) and finite(norm.get("velocity_mean"))
+         and finite(norm.get("velocity_std")) and norm["velocity_std"] > 0,
+         "a mapping with a finite velocity_mean and a positive velocity_std")
+    ds = meta.get("dataset")
+    need("dataset", isinstance(ds, dict) and isinstance(ds.get("name"), str) and isinstance(ds.get("reducer"), str),
+         "a mapping with the dataset's name and reducer")
+    need("weights_sha256", isinstance(meta.get("weights_sha256"), str)
+         and re.fullmatch(r"[0-9a-f]{64}", meta["weights_sha256"]) is not None, "the weights' SHA-256 (64 hex digits)")
 
 
 def load_tensors(path: Path, *, sha256: str | None = None) -> dict:

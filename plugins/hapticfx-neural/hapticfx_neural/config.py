@@ -91,18 +91,25 @@ def _merge(defaults: dict, given, source: str, key: str) -> dict:
     return merged
 
 
-def _check_model(m: dict, source: str) -> None:
+MAX_LAYER = 2048  # units or filters per layer: the paper's largest is 256
+MAX_LAYERS = 8
+
+
+def _check_model(m: dict, source: str, error: type = EffectError) -> None:
     for k, v in m.items():
         where = f"model.{k}"
         if k.endswith("_sizes") or k == "sizes":
-            if not (isinstance(v, list) and v and all(isinstance(x, int) and not isinstance(x, bool) and x > 0 for x in v)):
-                raise EffectError("expected a non-empty list of positive integers", source=source, key=where)
+            if not (isinstance(v, list) and 0 < len(v) <= MAX_LAYERS and all(
+                    isinstance(x, int) and not isinstance(x, bool) and 0 < x <= MAX_LAYER for x in v)):
+                raise error(f"expected a list of 1 to {MAX_LAYERS} integers in [1, {MAX_LAYER}]", source=source, key=where)
         elif k.endswith("dropout"):
-            if not (isinstance(v, (int, float)) and 0 <= v < 1):
-                raise EffectError("expected a number in [0, 1)", source=source, key=where)
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and 0 <= v < 1):
+                raise error("expected a number in [0, 1)", source=source, key=where)
         elif k in ("steps", "kernel"):
-            if not (isinstance(v, int) and not isinstance(v, bool) and v > 0) or (k == "kernel" and v % 2 == 0):
-                raise EffectError("expected a positive integer (kernel: odd)", source=source, key=where)
+            if not (isinstance(v, int) and not isinstance(v, bool) and 0 < v <= 100_000) or (k == "kernel" and v % 2 == 0):
+                raise error("expected a positive integer (kernel: odd)", source=source, key=where)
+        else:
+            raise error(f"unknown key {k!r}", source=source, key="model")
 
 
 def _check_training(t: dict, source: str) -> None:

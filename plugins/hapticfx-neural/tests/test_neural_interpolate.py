@@ -84,6 +84,7 @@ def test_model_level_continuity_and_range(trained, syn_dataset, cache):
 
 
 def test_stale_or_missing_tables_are_refused_and_rebuilt(tmp_path, trained, syn_dataset):
+    import json
     import shutil
     import subprocess
     import sys
@@ -105,8 +106,9 @@ def test_stale_or_missing_tables_are_refused_and_rebuilt(tmp_path, trained, syn_
     table = checkpoint.table_path(ck / "model.safetensors")
     old = table.read_bytes()
     # weights retrained without a new table: the JSON's digest no longer matches the table's source
-    meta = (ck / "model.json").read_text().replace('"weights_sha256": "', '"weights_sha256": "0')
-    (ck / "model.json").write_text(meta)
+    meta = json.loads((ck / "model.json").read_text())
+    meta["weights_sha256"] = ("0" if meta["weights_sha256"][0] != "0" else "1") + meta["weights_sha256"][1:]
+    (ck / "model.json").write_text(json.dumps(meta))
     with pytest.raises(CheckpointError, match=r"model.table.npz: stale: built for weights_sha256 .*"
                                               r"rebuild it with `hapticfx table .*ck`"):
         serve()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -176,3 +177,25 @@ def test_an_untrained_network_is_the_linear_interpolator(arch):
     meta = {"steps": TINY_BY_ARCH[arch]["steps"], "normalisation": {"velocity_mean": 3.0, "velocity_std": 1.0}}
     out = predict(net, meta, stack_triples([(lo, hi, 3.2, None)], ["x"]))[0]
     assert np.allclose(out, LinearInterpolator().interpolate(lo, hi, 3.2), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("change, expected", [
+    (lambda m: m["model"].update(decoder_sizes=[4000000]), "model.decoder_sizes: expected a list of 1 to 8 integers"),
+    (lambda m: m.pop("normalisation"), "normalisation: expected a mapping with a finite velocity_mean"),
+    (lambda m: m.update(dataset="x"), "dataset: expected a mapping with the dataset's name and reducer"),
+    (lambda m: m.update(interpolator="gpt"), "interpolator: expected one of convbilstm"),
+    (lambda m: m.update(n_samples=10**9), "n_samples: expected an integer in [1, 100000]"),
+    (lambda m: m["model"].update(colour=1), "model: expected a mapping with steps, kernel, encoder_sizes"),
+    (lambda m: m.update(weights_sha256=None), "weights_sha256: expected the weights' SHA-256"),
+])
+def test_checkpoint_metadata_is_validated_before_anything_is_built(tmp_path, trained, change, expected):
+    import shutil
+
+    from hapticfx_neural.training import load_network
+
+    shutil.copy(trained, tmp_path / "model.safetensors")
+    meta = json.loads(trained.with_suffix(".json").read_text())
+    change(meta)
+    (tmp_path / "model.json").write_text(json.dumps(meta))
+    with pytest.raises(CheckpointError, match="model.json: " + re.escape(expected)):
+        load_network(tmp_path / "model.safetensors", arch="convbilstm")
