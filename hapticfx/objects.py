@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from .errors import EffectError
@@ -20,6 +21,14 @@ class ObjectInfo:
 
     def __post_init__(self):
         valid_number(self.mass_kg, name=f"object {self.id!r} mass_kg", minimum=1e-6, maximum=1e4)
+
+
+_OBJECT_ID = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,63}")
+
+
+def valid_object_id(object_id) -> bool:
+    """Whether ``object_id`` can name an object in a dataset (it names files there: no paths, no dotfiles)."""
+    return isinstance(object_id, str) and _OBJECT_ID.fullmatch(object_id) is not None
 
 
 PAPER_OBJECTS: dict[str, ObjectInfo] = {

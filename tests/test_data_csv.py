@@ -141,8 +141,8 @@ def test_many_errors_are_all_counted(tmp_path):
     rows = _rows()
     for i in range(0, 40, 2):
         _replace(rows, i, 4, "nan")
-    msg = _bad(tmp_path, [HEADER] + rows, r"20 problem\(s\)")
-    assert msg.endswith("and 8 more")
+    msg = _bad(tmp_path, [HEADER] + rows, r"in.csv: 20 problem\(s\): line 2: ax_g is nan")
+    assert msg.endswith("and 17 more")
 
 
 def test_missing_file_and_existing_output(tmp_path):
@@ -153,3 +153,12 @@ def test_missing_file_and_existing_output(tmp_path):
     with pytest.raises(DatasetError, match="already exists"):
         import_csv([f], tmp_path / "ds")
     import_csv([f], tmp_path / "ds", overwrite=True)
+
+
+def test_absurd_numbers_and_object_ids_are_refused(tmp_path):
+    rows = _rows(velocities=(2.42,), drops=1)
+    _bad(tmp_path, [HEADER] + _replace(list(rows), 5, 4, "1e308"), r"line 7: ax_g 1e\+308 is outside \[-10000, 10000\]")
+    fast = [r.replace(f",{t},", f",{float(t) * 1e-9:.17g},") for r in rows for t in [r.split(",")[3]]]
+    _bad(tmp_path, [HEADER] + fast, r"sample interval 1e-12 s is a rate of 1e\+12 Hz; expected 10 Hz to 1e\+06 Hz")
+    _bad(tmp_path, [HEADER] + [r.replace("wood-beam", "../../etc/x") for r in rows],
+         r"object '../../etc/x' must be 1-64 letters, digits")

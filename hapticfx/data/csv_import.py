@@ -24,14 +24,18 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from ..errors import DatasetError
-from ..objects import PAPER_OBJECTS, ObjectInfo
+from ..errors import DatasetError, one_line, preview
+from ..objects import PAPER_OBJECTS, ObjectInfo, valid_object_id
 from .build import ObjectRecordings, build_dataset
 
 COLUMNS = ("object", "velocity_mps", "drop", "t_s", "ax_g", "ay_g", "az_g")
+# Bounds that no real recording crosses: a number beyond them is a unit or typing mistake.
+LIMITS = {"velocity_mps": (float("-inf"), 100.0), "t_s": (-1e6, 1e6), "ax_g": (-1e4, 1e4), "ay_g": (-1e4, 1e4),
+          "az_g": (-1e4, 1e4)}
+RATE_HZ = (10.0, 1e6)
 MIN_SAMPLES = 64
 RATE_TOLERANCE = 0.01  # a sample interval may differ from its drop's median by 1 %
-MAX_REPORTED = 12
+MAX_REPORTED = 3
 
 
 @dataclass
@@ -44,19 +48,25 @@ class _Drop:
 
 
 class _Problems:
+    """Every problem found in the files: the count, and the first few in the one-line error."""
+
     def __init__(self):
-        self.items: list[str] = []
+        self.items: list[tuple[str, str]] = []
         self.count = 0
 
     def add(self, where: str, message: str) -> None:
         self.count += 1
         if len(self.items) < MAX_REPORTED:
-            self.items.append(f"{where}: {message}")
+            self.items.append((where, message))
 
     def raise_if_any(self) -> None:
-        if self.count:
-            more = f"; ... and {self.count - len(self.items)} more" if self.count > len(self.items) else ""
-            raise DatasetError(f"{self.count} problem(s): " + "; ".join(self.items) + more)
+        if not self.count:
+            return
+        files = {where.split(": line ")[0] for where, _ in self.items}
+        source = files.pop() if len(files) == 1 else None
+        shown = [f"{where[len(source) + 2:] if source else where}: {message}" for where, message in self.items]
+        more = f"; ... and {self.count - len(self.items)} more" if self.count > len(self.items) else ""
+        raise DatasetError(f"{self.count} problem(s): " + "; ".join(shown) + more, source=source)
 
 
 def _number(text: str, column: str, where: str, problems: _Problems) -> float | None:
@@ -66,10 +76,14 @@ def _number(text: str, column: str, where: str, problems: _Problems) -> float | 
     try:
         value = float(text)
     except ValueError:
-        problems.add(where, f"{column} {text!r} is not a number")
+        problems.add(where, f"{column} {preview(text)} is not a number")
         return None
     if not math.isfinite(value):
-        problems.add(where, f"{column} is {text.strip()} (expected a finite number)")
+        problems.add(where, f"{column} is {one_line(text, 20)} (expected a finite number)")
+        return None
+    lo, hi = LIMITS[column]
+    if not lo <= value <= hi:
+        problems.add(where, f"{column} {value:g} is outside [{lo:g}, {hi:g}]")
         return None
     return value
 
@@ -106,13 +120,14 @@ def _read(file: Path, drops: dict, problems: _Problems) -> None:
                                  + (" (missing axis?)" if len(row) < len(COLUMNS) else ""))
                     continue
                 obj = row[0].strip()
-                if not obj:
-                    problems.add(where, "object is empty")
+                if not valid_object_id(obj):
+                    problems.add(where, f"object {preview(obj)} must be 1-64 letters, digits, '.', '_' or '-' "
+                                        "(it names files in the dataset)")
                     continue
                 v = _number(row[1], "velocity_mps", where, problems)
                 drop_text = row[2].strip()
                 if not drop_text.isdigit():
-                    problems.add(where, f"drop {row[2]!r} must be a non-negative integer")
+                    problems.add(where, f"drop {preview(row[2])} must be a non-negative integer")
                     drop = None
                 else:
                     drop = int(drop_text)
@@ -152,6 +167,10 @@ def _drop_rate(key, d: _Drop, problems: _Problems) -> float | None:
         i = int(off[0])
         problems.add(f"{d.file}: line {d.lines[i + 1]}", f"{label}: sample interval {dt[i]:.6g} s differs from the "
                      f"drop's {step:.6g} s by more than {RATE_TOLERANCE:.0%} (uniform rate expected; mixed rates?)")
+        return None
+    if not RATE_HZ[0] <= 1.0 / step <= RATE_HZ[1]:
+        problems.add(where, f"{label}: sample interval {step:.6g} s is a rate of {1.0 / step:.6g} Hz; expected "
+                     f"{RATE_HZ[0]:g} Hz to {RATE_HZ[1]:g} Hz (t_s in seconds?)")
         return None
     return 1.0 / step
 

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DatasetError, HapticfxError
-from ..objects import ObjectInfo
+from ..errors import DatasetError, HapticfxError, preview
+from ..objects import ObjectInfo, valid_object_id
 from .bank import ProfileBank
 
 FORMAT = "hapticfx-dataset"
@@ -222,6 +222,9 @@ class DatasetWriter:
         return self
 
     def add_object(self, info: ObjectInfo, **extra) -> None:
+        if not valid_object_id(info.id):
+            raise DatasetError(f"object id {preview(info.id)} must be 1-64 letters, digits, '.', '_' or '-' "
+                               "(it names files in the dataset)")
         self.meta["objects"][info.id] = {
             "name": info.name, "mass_kg": info.mass_kg,
             "dimensions_mm": list(info.dimensions_mm), "material": info.material, **extra,
