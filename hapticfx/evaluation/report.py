@@ -135,29 +135,35 @@ def figures(results: dict, summary: dict, banks: dict, out: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     names = [m for m, s in summary["methods"].items() if "error" not in s]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.3))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    markers = "osD^vP*Xh<>"
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.4))
     for ax, key, floor_keys, label in ((axes[0], "rmse", ("drop_to_drop_rmse", "mean_of_others_rmse"), "RMSE (g)"),
                                        (axes[1], "lsd_db", ("drop_to_drop_lsd_db",), "log-spectral distance (dB)")):
-        for m in names:
+        for i, m in enumerate(names):
             s = summary["methods"][m]
-            served = s.get("table_latency_ms") or s.get("latency_ms")
-            if served is None:
-                continue
-            ax.scatter(served["median"], s[key], s=36, zorder=3)
-            ax.annotate(m, (served["median"], s[key]), textcoords="offset points", xytext=(4, 4), fontsize=8)
+            style = dict(color=colours[i % len(colours)], marker=markers[i % len(markers)], s=40, zorder=3)
+            if "latency_ms" in s:  # filled: as served (a table where there is one); hollow: direct inference
+                served = (s.get("table_latency_ms") or s["latency_ms"])["median"]
+                ax.scatter(served, s[key], label=m, **style)
+                if "table_latency_ms" in s:
+                    ax.scatter(s["latency_ms"]["median"], s[key], facecolors="none", edgecolors=style["color"],
+                               marker=style["marker"], s=40, zorder=3)
+                    ax.plot([served, s["latency_ms"]["median"]], [s[key]] * 2, color=style["color"], lw=0.6, alpha=0.5)
         styles = iter(("--", ":"))
         for fk in floor_keys:
             if fk in summary["floors"]:
                 what = "another drop" if fk.startswith("drop_to_drop") else "mean of the other drops"
                 ax.axhline(summary["floors"][fk], color="grey", ls=next(styles), lw=1, label=f"floor: {what}")
         ax.set_xscale("log")
-        ax.set_xlabel("run time per profile as served, median (ms)")
+        ax.set_xlabel("run time per profile, median (ms)")
         ax.set_ylabel(label)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"{results['dataset']} ({results['reducer']}), {results['protocol']}: error against run time",
-                 fontsize=10)
-    fig.tight_layout()
+        ax.grid(True, alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="center right", fontsize=8, frameon=False)
+    fig.suptitle(f"{results['dataset']} ({results['reducer']}), {results['protocol']}: error against run time "
+                 "(filled: as served, from a velocity table where there is one; hollow: direct inference)", fontsize=10)
+    fig.tight_layout(rect=(0, 0, 0.83, 1))
     paths = [out / "error_vs_runtime.png"]
     fig.savefig(paths[0], dpi=110)
     plt.close(fig)
