@@ -29,6 +29,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
+from .signal import MAX_VELOCITY_MPS
+
 log = logging.getLogger(__name__)
 
 IMPACT_ADDRESS = "/hapticfx/impact"
@@ -40,7 +42,7 @@ DROP_REASONS = (
     "bundle",          # an OSC bundle ('#bundle'): not supported, send messages
     "wrong_address",   # a well-formed message to an address we do not serve
     "wrong_types",     # right address, type tags not one of the documented forms
-    "bad_value",       # negative or non-finite velocity, channel < -1, non-finite time
+    "bad_value",       # velocity negative, non-finite or above 100 m/s, channel < -1, non-finite time
     "unknown_object",  # object id not in the scene
     "queue_full",      # the engine's queue was full
     "engine_refused",  # the engine rejected it for another reason (closed, invalid)
@@ -131,8 +133,8 @@ def parse_impact(tags: str, args: list | None) -> ImpactMessage:
     obj, velocity = args[0], float(args[1])
     channel = args[2] if len(args) > 2 else -1
     at = float(args[3]) if len(args) > 3 else None
-    if not math.isfinite(velocity) or velocity < 0:
-        raise OscDecodeError("bad_value", f"velocity {velocity} is negative or not finite")
+    if not math.isfinite(velocity) or not 0 <= velocity <= MAX_VELOCITY_MPS:
+        raise OscDecodeError("bad_value", f"velocity {velocity:g} is not a finite number in [0, {MAX_VELOCITY_MPS:g}] m/s")
     if channel < -1:
         raise OscDecodeError("bad_value", f"channel {channel} (use -1 for the scene's channel)")
     if at is not None and not math.isfinite(at):

@@ -47,9 +47,12 @@ def valid_number(value, *, name: str, minimum: float | None = None, maximum: flo
     return v
 
 
+MAX_VELOCITY_MPS = 100.0  # a falling object, a ball, a wheel: no impact here comes near it
+
+
 def valid_velocity(value) -> float:
-    """An impact velocity in m/s: finite and not negative."""
-    return valid_number(value, name="velocity", minimum=0.0)
+    """An impact velocity in m/s: finite, not negative, at most :data:`MAX_VELOCITY_MPS`."""
+    return valid_number(value, name="velocity", minimum=0.0, maximum=MAX_VELOCITY_MPS)
 
 
 @dataclass(frozen=True)

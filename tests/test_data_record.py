@@ -3,6 +3,7 @@
 import math
 import os
 import pty
+import re
 import threading
 import tty
 
@@ -131,3 +132,17 @@ def test_board_left_streaming_by_a_previous_host(tmp_path):
             assert parse_sample(s.readline().decode()) is not None
         files = record_drops(emu.port, object_id="x", height_m=0.5, drops=1, out_dir=tmp_path, n_samples=300)
     assert len(files) == 1
+
+
+@pytest.mark.parametrize("field, value, expected", [
+    ("rate_hz", "nan", "rate_hz=nan; expected 1 to 1e6 Hz"),
+    ("rate_hz", "0", "rate_hz=0.0; expected 1 to 1e6 Hz"),
+    ("counts_per_g", "inf,102.4,102.4", "counts_per_g=(inf, 102.4, 102.4); expected finite counts per g"),
+    ("adc_bits", "-5", "adc_bits=-5; expected 1 to 32 bits"),
+    ("zero", "512,512,99999", "zero=(512.0, 512.0, 99999.0); expected counts within the ADC's range"),
+])
+def test_hello_replies_with_impossible_numbers_are_refused(field, value, expected):
+    line = " ".join(f"{k}={value}" if k == field else p for p in GY61.hello_line().split()
+                    for k in [p.split("=", 1)[0]])
+    with pytest.raises(DeviceError, match=re.escape(expected)):
+        parse_hello(line)

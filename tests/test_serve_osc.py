@@ -82,6 +82,8 @@ def test_bundle_is_its_own_reason():
     ("sf", ["a", -0.1], "bad_value"),
     ("sf", ["a", float("nan")], "bad_value"),
     ("sd", ["a", float("inf")], "bad_value"),
+    ("sd", ["a", 1.7e308], "bad_value"),  # once an OverflowError traceback in the contact model
+    ("sf", ["a", 100.5], "bad_value"),
     ("sfi", ["a", 1.0, -2], "bad_value"),
     ("sfid", ["a", 1.0, 0, float("nan")], "bad_value"),
 ])

@@ -21,11 +21,13 @@ is ``(count - zero) / counts_per_g`` per axis.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DeviceError
+from ..errors import DeviceError, one_line, preview
 
 BAUD = 500000
 MAGIC = "HAPTICFX-ACCEL"
@@ -66,18 +68,30 @@ def parse_hello(line: str, *, port: str = "board") -> BoardInfo:
     """Parse a HELLO reply; a wrong or incomplete one is a :class:`DeviceError`."""
     parts = line.strip().split()
     if len(parts) < 2 or parts[0] != MAGIC:
-        raise DeviceError(f"{port}: not a hapticfx accelerometer board (answered {line.strip()[:60]!r} to HELLO)")
+        raise DeviceError(f"{port}: not a hapticfx accelerometer board (answered {preview(line.strip())} to HELLO)")
     if parts[1] != str(VERSION):
-        raise DeviceError(f"{port}: board speaks protocol version {parts[1]}; this hapticfx speaks {VERSION}")
+        raise DeviceError(f"{port}: board speaks protocol version {preview(parts[1])}; this hapticfx speaks {VERSION}")
     fields = dict(p.split("=", 1) for p in parts[2:] if "=" in p)
     try:
         trip = lambda k: tuple(float(x) for x in fields[k].split(","))  # noqa: E731
         info = BoardInfo(float(fields["rate_hz"]), fields.get("sensor", "unknown"), fields.get("board", "unknown"),
                          int(fields["adc_bits"]), trip("zero"), trip("counts_per_g"))
     except (KeyError, ValueError) as exc:
-        raise DeviceError(f"{port}: incomplete HELLO reply {line.strip()!r} ({exc})") from None
-    if len(info.zero) != 3 or len(info.counts_per_g) != 3 or min(info.counts_per_g) <= 0 or info.rate_hz <= 0:
-        raise DeviceError(f"{port}: HELLO reply has bad calibration or rate: {line.strip()!r}")
+        raise DeviceError(f"{port}: incomplete HELLO reply {preview(line.strip())} ({one_line(str(exc), 60)})") from None
+    if len(info.zero) != 3 or len(info.counts_per_g) != 3:
+        raise DeviceError(f"{port}: HELLO reply needs three zero and three counts_per_g values: {preview(line.strip())}")
+    bits = 2 ** info.adc_bits if 1 <= info.adc_bits <= 32 else None
+    checks = (
+        ("rate_hz", info.rate_hz, 1.0 <= info.rate_hz <= 1e6, "1 to 1e6 Hz"),
+        ("adc_bits", info.adc_bits, bits is not None, "1 to 32 bits"),
+        ("zero", info.zero, bits is not None and all(math.isfinite(z) and 0 <= z <= bits for z in info.zero),
+         "counts within the ADC's range"),
+        ("counts_per_g", info.counts_per_g, all(math.isfinite(c) and 1e-6 <= c <= 1e9 for c in info.counts_per_g),
+         "finite counts per g, 1e-6 to 1e9"),
+    )
+    for name, value, ok, expected in checks:
+        if not ok:
+            raise DeviceError(f"{port}: HELLO reply has {name}={preview(value)}; expected {expected}")
     return info
 
 

@@ -27,6 +27,10 @@ DEFAULT_BAUD = 115200
 DUTY_SLOTS = 10
 ERROR_CODES = ("SYNTAX", "RANGE", "LIMIT", "BUSY", "DUTY", "TOOLONG")
 STATUS_KEYS = ("on", "used_ms", "budget_ms", "max_on_ms", "duty_permille", "window_ms", "fired", "refused")
+# What the sketch can report (16-bit times, a 32-bit window, counters): a number beyond is a corrupt line.
+_MS, _COUNT = (0, 65_535), (0, 2**32 - 1)
+STATUS_RANGES = {"on": (0, 1), "used_ms": (0, 2**32 - 1), "budget_ms": (0, 2**32 - 1), "max_on_ms": _MS,
+                 "duty_permille": (0, 1000), "window_ms": (1, 2**32 - 1), "fired": _COUNT, "refused": _COUNT}
 # Refusals that are about heat, not about a malformed command: the host counts them.
 THERMAL_CODES = ("LIMIT", "BUSY", "DUTY")
 
@@ -146,6 +150,9 @@ def parse_status(line: str, *, source: str | None = None) -> dict[str, int]:
     missing = [k for k in STATUS_KEYS if k not in values]
     if missing:
         raise _fail(f"STATUS lacks {', '.join(missing)}", line, source)
+    for key, (lo, hi) in STATUS_RANGES.items():
+        if not lo <= values[key] <= hi:
+            raise _fail(f"STATUS {key}={values[key]} is outside {lo}..{hi}", line, source)
     return values
 
 
@@ -155,7 +162,10 @@ def parse_fire_reply(line: str, *, source: str | None = None) -> tuple[int, int]
     parts = line.split()
     if len(parts) != 4 or parts[:2] != ["OK", "FIRE"] or not (parts[2].isdigit() and parts[3].isdigit()):
         raise _fail("expected 'OK FIRE <ms> <duty>' to FIRE", line, source)
-    return int(parts[2]), int(parts[3])
+    ms, duty = int(parts[2]), int(parts[3])
+    if not (1 <= ms <= _MS[1] and 0 <= duty <= 255):
+        raise _fail(f"FIRE reply {ms} ms at duty {duty} is outside 1..65535 ms and 0..255", line, source)
+    return ms, duty
 
 
 def fire_command(on_ms: int, duty: int) -> str:

@@ -76,3 +76,21 @@ def test_garbage_bytes_are_a_device_error(raw):
 def test_fire_command_range(bad):
     with pytest.raises(ValueError):
         fire_command(*bad)
+
+
+@pytest.mark.parametrize("line, expected", [
+    ("OK FIRE 0 99999999999999999999", "FIRE reply 0 ms at duty 99999999999999999999 is outside"),
+    ("OK FIRE 70000 10", "FIRE reply 70000 ms at duty 10 is outside"),
+])
+def test_fire_replies_out_of_range_are_device_errors(line, expected):
+    with pytest.raises(DeviceError, match=expected):
+        parse_fire_reply(line)
+
+
+def test_status_with_impossible_values_is_a_device_error():
+    good = "STATUS on=0 used_ms=0 budget_ms=2500 max_on_ms=100 duty_permille=250 window_ms=10000 fired=0 refused=0"
+    assert parse_status(good)["window_ms"] == 10000
+    with pytest.raises(DeviceError, match="STATUS window_ms=0 is outside 1..4294967295"):
+        parse_status(good.replace("window_ms=10000", "window_ms=0"))
+    with pytest.raises(DeviceError, match="STATUS duty_permille=5000 is outside 0..1000"):
+        parse_status(good.replace("duty_permille=250", "duty_permille=5000"))
