@@ -78,3 +78,23 @@ def test_pcm_wav_is_read_by_the_standard_library(tmp_path):
     with pytest.raises(HapticfxError, match="not a WAV file"):
         read_wav(tmp_path.joinpath("b.wav")) if (tmp_path / "b.wav").write_text("nope") else None
     check_overwrite(tmp_path / "nothing-here.wav", force=False)
+
+
+def _with_file_size_limit(limit: int, *args, cwd=None):
+    """Run hapticfx with every file capped at ``limit`` bytes (RLIMIT_FSIZE): writes past it fail with EFBIG,
+    a real OS error as a full disk gives, without needing a full disk."""
+    code = ("import resource, signal, sys; signal.signal(signal.SIGXFSZ, signal.SIG_IGN); "
+            f"resource.setrlimit(resource.RLIMIT_FSIZE, ({limit}, {limit})); "
+            "from hapticfx.cli import main; main(sys.argv[1:])")
+    return subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True, cwd=cwd)
+
+
+def test_a_write_the_machine_refuses_is_one_line_and_leaves_nothing(tmp_path):
+    effect = tmp_path / "e.yaml"
+    effect.write_text(KE % (tmp_path / "x.wav", ""))
+    for out in ("r.wav", "r.png", "r.csv"):
+        r = _with_file_size_limit(2000, "render", effect, "--out", tmp_path / out)
+        assert r.returncode == 2, (out, r.stderr)
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and "File too large" in lines[0], r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["e.yaml"]

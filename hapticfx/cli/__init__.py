@@ -9,7 +9,7 @@ import importlib
 
 import typer
 
-from ..errors import HapticfxError
+from ..errors import HapticfxError, one_line
 
 HELP = """Haptic impact effects: render and play what a falling object feels like.
 
@@ -66,6 +66,12 @@ def main(argv: list[str] | None = None) -> None:
         if debug:
             traceback.print_exc()
         error(str(exc))
+        code = 2
+    except OSError as exc:  # the machine's, not the program's: a full disk, a read-only or missing directory
+        if debug:
+            traceback.print_exc()
+        where = f"{exc.filename}: " if exc.filename else ""
+        error(one_line(f"{where}{exc.strerror or exc}"))
         code = 2
     except typer.Exit as exc:
         code = exc.exit_code

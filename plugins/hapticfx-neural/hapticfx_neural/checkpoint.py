@@ -44,11 +44,19 @@ def file_sha256(path: Path) -> str:
 
 def save(path: Path, tensors: dict, meta: dict) -> None:
     """Write ``path`` (``.safetensors``) and its ``.json`` sidecar (with the weights' SHA-256) atomically."""
+    from safetensors import SafetensorError
     from safetensors.torch import save_file
 
     path = Path(path)
     tensors = {k: v.detach().contiguous().cpu() for k, v in tensors.items()}
-    _atomic_write(path, lambda tmp: save_file(tensors, tmp))
+
+    def write(tmp):
+        try:
+            save_file(tensors, tmp)
+        except SafetensorError as exc:  # its I/O errors (a full disk) are the machine's, as an OSError is
+            raise OSError(str(exc).replace("Error while serializing: I/O error: ", "")) from None
+
+    _atomic_write(path, write)
     meta = {"format": FORMAT, "version": VERSION, **meta, "weights_sha256": file_sha256(path)}
     _atomic_write(path.with_suffix(".json"), lambda tmp: Path(tmp).write_text(json.dumps(meta, indent=2) + "\n"))
 

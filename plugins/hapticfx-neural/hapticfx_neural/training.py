@@ -105,6 +105,7 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
         from tqdm import tqdm
         bar = tqdm(total=training["epochs"], initial=state["epoch"], desc=label or arch, unit="epoch",
                    file=sys.stderr, leave=True, dynamic_ncols=True)
+    created = out is not None and not Path(out).exists()
     bs = int(training["batch_size"])
     t0 = time.perf_counter() - state["elapsed_s"]
     while state["epoch"] < training["epochs"] and state["bad"] < training["patience"]:
@@ -128,12 +129,12 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
             state.update(best=val_rmse, best_epoch=state["epoch"], bad=0)
             best_state = copy.deepcopy(net.state_dict())
             if out is not None:
-                _save_best(out, best_state, meta, state, t0)
+                _saved(lambda: _save_best(out, best_state, meta, state, t0), out, state, created)
         else:
             state["bad"] += 1
         state["elapsed_s"] = time.perf_counter() - t0
         if out is not None:
-            _save_resume(out, net, opt, gen, meta, state)
+            _saved(lambda: _save_resume(out, net, opt, gen, meta, state), out, state, created)
         if bar is not None:
             bar.set_postfix(loss=f"{train_rmse:.4f}", val=f"{val_rmse:.4f}", best=state["best_epoch"])
             bar.update(1)
@@ -143,8 +144,21 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
     net.eval()
     meta["training"].update(_summary(state, t0), stopped_early=state["bad"] >= training["patience"])
     if out is not None:
-        _save_best(out, best_state, meta, state, t0)
+        _saved(lambda: _save_best(out, best_state, meta, state, t0), out, state, created)
     return net, meta
+
+
+def _saved(save, out: Path, state: dict, created: bool) -> None:
+    """Run ``save``; a full disk or unwritable directory is one error that says what was kept."""
+    try:
+        save()
+    except OSError as exc:
+        if created and Path(out).is_dir() and not any(Path(out).iterdir()):
+            Path(out).rmdir()  # this run made it and nothing in it survived
+            kept = "nothing was saved"
+        else:
+            kept = f"epoch {state['epoch'] - 1} is saved there: free space and continue with --resume"
+        raise CheckpointError(f"{out}: cannot write the checkpoint ({exc.strerror or exc}); {kept}") from None
 
 
 def _summary(state: dict, t0: float) -> dict:

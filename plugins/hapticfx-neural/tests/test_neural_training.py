@@ -199,3 +199,18 @@ def test_checkpoint_metadata_is_validated_before_anything_is_built(tmp_path, tra
     (tmp_path / "model.json").write_text(json.dumps(meta))
     with pytest.raises(CheckpointError, match="model.json: " + re.escape(expected)):
         load_network(tmp_path / "model.safetensors", arch="convbilstm")
+
+
+def test_training_that_cannot_write_says_so_and_leaves_no_empty_directory(tmp_path, syn_dataset):
+    """Every file capped at 1 kB (RLIMIT_FSIZE: the OS refuses the write with EFBIG, as a full disk would)."""
+    import subprocess
+    import sys
+
+    cfg = tiny_config(tmp_path, syn_dataset, epochs=2)
+    code = ("import resource, signal, sys; signal.signal(signal.SIGXFSZ, signal.SIG_IGN); "
+            "resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000)); "
+            "from hapticfx.cli import main; main(sys.argv[1:])")
+    r = subprocess.run([sys.executable, "-c", code, "train", str(cfg), "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert re.search(r"cannot write the checkpoint \(File too large.*\); nothing was saved", r.stderr), r.stderr
+    assert not (tmp_path / "ck-convbilstm").exists()
