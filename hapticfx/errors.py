@@ -44,3 +44,7 @@ class DeviceError(HapticfxError):
 
 class CheckpointError(HapticfxError):
     """Model weights are missing, corrupt, or built for something else."""
+
+
+class StudyError(HapticfxError):
+    """A study file is malformed, or a results folder does not belong to it."""
