@@ -12,6 +12,8 @@ if [ "${1:-}" = "--test" ]; then
   # PulseAudio null sink for the sound-card tests, socat for serial pairs, liblo-tools for oscsend.
   # gcc-avr, avr-libc, arduino-core-avr: the solenoid sketch is compiled for the Uno in a test.
   apt_packages+=(pulseaudio pulseaudio-utils libasound2-plugins socat liblo-tools gcc-avr avr-libc arduino-core-avr)
+  # The study page is tested in Debian's headless chromium through selenium.
+  apt_packages+=(chromium chromium-driver)
 fi
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null; then
   missing=()
@@ -30,7 +32,7 @@ fi
 # (an unpinned resolve downloads several GB of CUDA packages).
 "$PY" -m pip install -q --disable-pip-version-check "torch==2.13.0"
 extra=""
-[ "${1:-}" = "--test" ] && extra="[test,earthquake,docs]"
+[ "${1:-}" = "--test" ] && extra="[test,earthquake,docs,study]"
 "$PY" -m pip install -q --disable-pip-version-check -e ".${extra}" \
   -e plugins/hapticfx-neural -e plugins/hapticfx-soundcard -e plugins/hapticfx-solenoid
 echo "install: done ($("$PY" -m hapticfx plugins | tail -n +2 | awk '{print $4}' | sort -u | tr '\n' ' '))"

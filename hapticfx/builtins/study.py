@@ -10,3 +10,10 @@ from ..registry import lazy
 def register_models(register):
     register("recorded", lazy("hapticfx.models.recorded:RecordedDropModel"))
 
+
+
+@hookimpl
+def register_commands(app):
+    from ..study.commands import register
+
+    register(app)
