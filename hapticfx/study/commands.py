@@ -130,9 +130,51 @@ def check(
                        + (f" (correct {t.correct})" if t.correct else ""))
 
 
+def analyze(
+    results: Path = typer.Argument(..., help="Results folder of `study run` (holds <participant>.jsonl files)."),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Where to write tables, figures and the report "
+                                                                  "(default: RESULTS/analysis)."),
+):
+    """Tidy CSV of all trials, means with 95% CIs, repeated-measures ANOVA, Holm pairwise tests, confusion
+    matrices, PNG figures and a text report."""
+    from ..atomic import atomic_path
+    from .analysis import analyse, report
+    from .plots import draw_all
+    from .results import load_folder
+
+    a = analyse(load_folder(results))
+    folder = out or Path(results) / "analysis"
+    folder.mkdir(parents=True, exist_ok=True)
+    pd = __import__("pandas")
+    tables = {
+        "trials.csv": a.trials,
+        "means.csv": pd.concat([r.means.assign(task=r.task, question=r.question) for r in a.ratings]) if a.ratings else None,
+        "anova.csv": pd.concat([r.anova.assign(task=r.task, question=r.question) for r in a.ratings if r.anova is not None])
+        if any(r.anova is not None for r in a.ratings) else None,
+        "pairwise.csv": pd.concat([r.pairwise.assign(task=r.task, question=r.question) for r in a.ratings
+                                   if r.pairwise is not None]) if any(r.pairwise is not None for r in a.ratings) else None,
+        "confusion.csv": pd.concat([m.confusion.stack().rename("count").reset_index().assign(task=m.task)
+                                    for m in a.matching]) if a.matching else None,
+    }
+    written = []
+    for name, table in tables.items():
+        if table is None:
+            continue
+        with atomic_path(folder / name) as tmp:
+            table.to_csv(tmp, index=name == "anova.csv", index_label="effect" if name == "anova.csv" else None)
+        written.append(folder / name)
+    typer.echo("drawing figures", err=True)
+    written += draw_all(a, folder)
+    text = report(a)
+    with atomic_path(folder / "report.txt") as tmp:
+        tmp.write_text(text)
+    typer.echo(text, nl=False)
+    typer.echo(f"wrote {len(written) + 1} files to {folder}: {', '.join(p.name for p in written)}, report.txt")
+
+
 def register(app: typer.Typer) -> None:
     study = typer.Typer(help="Perceptual studies: run the paper's user experiments and analyse them (docs/studies.md).",
                         no_args_is_help=True)
     app.add_typer(study, name="study")
-    for fn in (check, run):
+    for fn in (check, run, analyze):
         study.command(fn.__name__)(fn)
