@@ -76,3 +76,7 @@ class DeviceUnavailable(DeviceError):
 
 class CheckpointError(HapticfxError):
     """Model weights are missing, corrupt, or built for something else."""
+
+
+class StudyError(HapticfxError):
+    """A study file is malformed, or a results folder does not belong to it."""

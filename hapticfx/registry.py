@@ -22,7 +22,8 @@ from .errors import PluginError
 
 KINDS = ("reducer", "interpolator", "model", "actuator")
 ALLOW_ENV = "HAPTICFX_PLUGINS"
-BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data", "hapticfx.builtins.physics", "hapticfx.builtins.scene")
+BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data", "hapticfx.builtins.physics", "hapticfx.builtins.scene",
+                   "hapticfx.builtins.study")
 ENTRY_POINT_GROUP = "hapticfx"
 
 

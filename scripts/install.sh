@@ -13,6 +13,8 @@ if [ "${1:-}" = "--test" ]; then
   # PulseAudio null sink for the sound-card tests, socat for serial pairs, liblo-tools for oscsend.
   # gcc-avr, avr-libc, arduino-core-avr: the solenoid sketch is compiled for the Uno in a test.
   apt_packages+=(pulseaudio pulseaudio-utils libasound2-plugins socat liblo-tools gcc-avr avr-libc arduino-core-avr)
+  # The study page is tested in Debian's headless chromium through selenium.
+  apt_packages+=(chromium chromium-driver)
 fi
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null; then
   missing=()
@@ -41,7 +43,7 @@ if [ "${1:-}" = "--test" ]; then
     "$PY" -m pip install -q --disable-pip-version-check "torch==2.13.0"
     echo "install: torch $("$PY" -c 'import torch; print(torch.__version__)') from the default index ($cpu_index unreachable)"
   fi
-  extra="[test,earthquake,docs]" neural="[train]"
+  extra="[test,earthquake,docs,study]" neural="[train]"
 fi
 # Playing effects needs no torch: learned interpolators are served from their velocity tables.
 "$PY" -m pip install -q --disable-pip-version-check -e ".${extra}" \

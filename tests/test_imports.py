@@ -62,3 +62,26 @@ def test_playing_the_shipped_data_driven_effects_imports_no_torch(tmp_path):
                 assert exc.code == 0, exc.code
         """)
         assert not [m for m in HEAVY if m in mods], name
+
+
+STUDY_HEAVY = ("pandas", "statsmodels", "selenium", "matplotlib")
+
+
+def test_study_dependencies_stay_out_of_import_cli_and_play(tmp_path):
+    """The `study` commands are registered on every start: their analysis and browser libraries load only when used."""
+    effect = tmp_path / "ke.yaml"
+    effect.write_text("name: ke\nobject: concrete-brick\nmodel: {type: kinetic-energy}\nactuator: {type: memory}\n")
+    mods = _modules_after(f"""
+        import hapticfx
+        from hapticfx.registry import get_registry
+        from hapticfx.cli import build_app
+        import typer
+        list(get_registry())
+        typer.main.get_command(build_app())
+        from hapticfx.pipeline import Pipeline
+        with Pipeline.from_effect({str(effect)!r}) as p:
+            p.impact(velocity=3.0)
+    """)
+    assert "hapticfx.study.commands" in mods  # the probe did reach the study plugin
+    loaded = [m for m in STUDY_HEAVY if m in mods]
+    assert not loaded, f"imported {loaded}"

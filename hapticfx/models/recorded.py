@@ -1,0 +1,78 @@
+"""A recorded drop played back: the closest thing to a real object falling that hapticfx has.
+
+In the paper's perceptual study the real stimuli were objects dropped on the
+helmet. Here a study's "real" reference is one recorded drop of a dataset,
+preprocessed and reduced exactly as the dataset's banks were, and played
+through the same shaping, limiter and actuator as any rendered impact.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..data.dataset import Dataset, open_dataset
+from ..data.training import recorded_drops
+from ..errors import DatasetError, SignalError
+from ..interfaces import Impact, Model
+from ..params import BuildContext, doc
+from ..signal import Signal
+
+
+class RecordedDropModel(Model):
+    """One recorded drop of ``object`` at the impact's velocity, which must be a recorded one.
+
+    ``drop`` picks which of the repeated drops at that velocity plays (0-based);
+    without it, the representative drop of the bank plays.
+    """
+
+    name = "recorded"
+    units = "g"
+
+    @dataclass(frozen=True)
+    class Params:
+        dataset: str = field(default="builtin:helmet-drops", metadata=doc("dataset path or builtin:NAME"))
+        reducer: str = field(default="max-min", metadata=doc("reduce the 3 axes as this bank was"))
+        drop: int | None = field(default=None, metadata=doc("which repeated drop (0-based); default: the representative", min=0))
+
+    def __init__(self, params: Params, context: BuildContext):
+        self.params = params
+        self.context = context
+        self.dataset: Dataset = open_dataset(params.dataset, relative_to=context.base_dir)
+        self._drops: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._lock = threading.Lock()
+        if context.object_id:
+            self.dataset.bank(context.object_id, params.reducer)  # the object and bank exist
+
+    def drops(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
+        """``velocities (V,)`` and every drop reduced ``(V, D, N)`` (read once per object)."""
+        with self._lock:
+            if object_id not in self._drops:
+                found = recorded_drops(self.dataset, object_id, self.params.reducer)
+                if found is None:
+                    raise DatasetError(f"dataset {self.dataset.name!r} keeps no raw drops of {object_id!r}")
+                self._drops[object_id] = found
+            return self._drops[object_id]
+
+    def profile(self, object_id: str, velocity: float) -> np.ndarray:
+        bank = self.dataset.bank(object_id, self.params.reducer)
+        i = bank.index_of(velocity)
+        if i is None:
+            raise SignalError(f"{object_id!r} was not recorded at {velocity} m/s; recorded: "
+                              f"{', '.join(f'{v:g}' for v in bank.velocities)}")
+        if self.params.drop is None:
+            return bank.profiles[i].copy()
+        velocities, drops = self.drops(object_id)
+        j = int(np.flatnonzero(velocities == velocity)[0])
+        if self.params.drop >= drops.shape[1]:
+            raise SignalError(f"{object_id!r} at {velocity} m/s has {drops.shape[1]} drops; drop {self.params.drop} does not exist")
+        return np.asarray(drops[j, self.params.drop], dtype=np.float64).copy()
+
+    def render(self, impact: Impact) -> Signal:
+        return Signal(self.profile(impact.object or self.context.object_id, impact.velocity), self.dataset.rate_hz)
+
+    def describe(self) -> dict:
+        return {"model": self.name, "dataset": str(self.dataset.path), "reducer": self.params.reducer,
+                "drop": "representative" if self.params.drop is None else self.params.drop}
