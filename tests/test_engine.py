@@ -174,8 +174,10 @@ def test_close_without_drain_cancels_what_is_queued(tmp_path, registry):
     engine = Engine(scene(tmp_path, model="{type: test-gated, gated: true}"), registry=registry)
     for _ in range(6):
         assert engine.impact("brick", 3.0)
-    threading.Timer(0.2, GATE.set).start()
+    opener = threading.Timer(0.2, GATE.set)
+    opener.start()
     stats = engine.close(drain=False)
+    opener.join()  # a late timer must not open the gate during the next test
     assert stats["queued"] == 6 == stats["rendered"] + stats["cancelled"] + stats["failed"]
     assert stats["cancelled"] >= 5 and stats["pending"] == 0
 
