@@ -68,8 +68,10 @@ def table(
 
 
 def register(app: typer.Typer, bench: typer.Typer) -> None:
+    from .bench_table import bench_table
     from .bench_threads import threads
 
     app.command("train")(train)
     app.command("table")(table)
     bench.command("threads")(threads)
+    bench.command("table")(bench_table)

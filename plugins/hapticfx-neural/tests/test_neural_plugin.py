@@ -142,3 +142,14 @@ def test_the_shipped_table_equals_direct_inference():
             lo, hi = bank.neighbours(float(v))
             a, b = tabled.interpolate(lo, hi, float(v)), direct.interpolate(lo, hi, float(v))
             assert np.max(np.abs(a - b)) <= 1e-6 * np.max(np.abs(b))
+
+
+def test_bench_table_compares_a_trained_table_with_its_network(trained, syn_dataset):
+    r = _cli("bench", "table", "--weights", str(trained.parent), "--dataset", str(syn_dataset), "--velocities", "40",
+             "--repeat", "5")
+    assert r.returncode == 0, r.stderr
+    rows = {line.split("|")[1].strip(): line.split("|")[2].strip() for line in r.stdout.splitlines()
+            if line.startswith("| ") and "value" not in line}
+    assert float(rows["largest abs(table - direct) / peak, random velocities"]) <= 1e-6
+    assert float(rows["largest jump / peak at r +- 1e-9 m/s, table"]) <= 1e-6
+    assert float(rows["largest jump / peak at r +- 1e-9 m/s, direct"]) <= 1e-6
