@@ -1,4 +1,4 @@
-"""Atomic file writing: a file appears whole or not at all."""
+"""File paths and atomic writing: a file appears whole or not at all."""
 
 from __future__ import annotations
 
@@ -8,6 +8,14 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from .errors import HapticfxError
+
+
+def user_path(text) -> Path:
+    """``text`` as a path with ``~`` expanded; ``~name`` of an unknown user stays as written."""
+    try:
+        return Path(text).expanduser()
+    except RuntimeError:  # no such user, or no home directory
+        return Path(text)
 
 
 @contextmanager

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .actuators.virtual import MemoryActuator, WavActuator
+from .atomic import user_path
 from .effect import Effect, Plan, check_effect, effective_limits, load_effect
 from .errors import DeviceError, EffectError, HapticfxError
 from .interfaces import Actuator, Impact, Model
@@ -70,7 +71,7 @@ class Pipeline:
         if virtual:
             cls, path = virtual
             # A file named on the command line or in code is the caller's explicit choice (the CLI asks for --force).
-            params = cls.Params(path=str(Path(path).expanduser()), overwrite=True) if cls is WavActuator else cls.Params()
+            params = cls.Params(path=str(user_path(path)), overwrite=True) if cls is WavActuator else cls.Params()
             self.actuator: Actuator = cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
         else:
             self.actuator = device_actuator

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from .effect import ActuatorSection, Effect, effect_from_mapping, parse_actuator_section, read_yaml
+from .atomic import user_path
 from .errors import EffectError, preview
 from .params import doc, parse_params
 
@@ -115,7 +116,7 @@ def _entry(object_id: Any, raw: Any, *, source: str, base_dir: Path, actuators: 
     if "effect" in raw:
         if not isinstance(raw["effect"], str) or not raw["effect"].strip():
             raise EffectError(f"expected a file path, got {preview(raw['effect'])}", source=source, key=f"{key}.effect")
-        path = Path(raw["effect"]).expanduser()
+        path = user_path(raw["effect"])
         path = path if path.is_absolute() else base_dir / path
         effect = effect_from_mapping(read_yaml(path), source=str(path), base_dir=path.resolve().parent)
     else:

@@ -37,7 +37,10 @@ def valid_number(value, *, name: str, minimum: float | None = None, maximum: flo
     """Return ``value`` as a finite float within [minimum, maximum], or raise :class:`SignalError`."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise SignalError(f"{name} must be a number, got {type(value).__name__} {value!r}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer beyond any float
+        raise SignalError(f"{name} must be a number of ordinary size, got one of {len(str(value))} digits") from None
     if not math.isfinite(v):
         raise SignalError(f"{name} must be finite, got {v}")
     if minimum is not None and v < minimum:

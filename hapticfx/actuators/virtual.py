@@ -14,6 +14,7 @@ from typing import Literal
 
 import numpy as np
 
+from ..atomic import user_path
 from ..errors import DeviceError, HapticfxError
 from ..interfaces import Actuator, ActuatorSpec
 from ..params import BuildContext, doc
@@ -73,7 +74,7 @@ class WavActuator(Actuator):
         target = params.path or (context.device if isinstance(context.device, str) else None)
         if not target:
             raise DeviceError("the wav actuator needs a path (actuator.path, or --device wav:PATH)")
-        path = Path(target).expanduser()
+        path = user_path(target)
         self.path = path if path.is_absolute() else context.base_dir / path if params.path else path
         self.params = params
         self.spec = spec or _plain_spec(params.rate_hz)

@@ -67,12 +67,13 @@ def play(
     file and a PNG picture in the current directory instead, and their names are printed.
     """
     from ..actuators.files import check_overwrite
+    from ..atomic import user_path
     from ..pipeline import Pipeline, stand_in
 
     dev = _device(device)
     virtual = stand_in(dev)
     if virtual and virtual[1]:
-        check_overwrite(Path(virtual[1]).expanduser(), force=force)
+        check_overwrite(user_path(virtual[1]), force=force)
     pipeline = Pipeline.from_effect(effect, device=dev)
     try:
         pipeline.open()

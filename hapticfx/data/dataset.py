@@ -23,13 +23,17 @@ import os
 import shutil
 import tempfile
 import threading
+import struct
+import tokenize
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import DatasetError, HapticfxError, preview
+from ..atomic import user_path
+from ..errors import DatasetError, HapticfxError, one_line, preview
 from ..objects import ObjectInfo, valid_object_id
 from .bank import ProfileBank
 
@@ -37,6 +41,9 @@ FORMAT = "hapticfx-dataset"
 VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 BUILTIN_DIR = Path(__file__).resolve().parent.parent / "datasets"
+# What reading a damaged .npz can raise, from the file system to the zip and .npy layers.
+UNREADABLE = (OSError, ValueError, EOFError, KeyError, IndexError, TypeError, zipfile.BadZipFile, zlib.error,
+              struct.error, NotImplementedError, SyntaxError, tokenize.TokenError, MemoryError)
 
 
 def resolve_dataset_path(ref: str | os.PathLike, *, relative_to: Path | None = None) -> Path:
@@ -45,11 +52,11 @@ def resolve_dataset_path(ref: str | os.PathLike, *, relative_to: Path | None = N
     if text.startswith(BUILTIN_PREFIX):
         name = text[len(BUILTIN_PREFIX):]
         path = BUILTIN_DIR / name
-        if not (path / "dataset.json").is_file():
+        if not valid_object_id(name) or not (path / "dataset.json").is_file():
             known = sorted(p.name for p in BUILTIN_DIR.glob("*") if (p / "dataset.json").is_file()) if BUILTIN_DIR.is_dir() else []
-            raise DatasetError(f"no built-in dataset {name!r}; built-in: {', '.join(known) or 'none'}")
+            raise DatasetError(f"no built-in dataset {preview(name)}; built-in: {', '.join(known) or 'none'}")
         return path
-    path = Path(text).expanduser()
+    path = user_path(text)
     if not path.is_absolute() and relative_to is not None:
         path = relative_to / path
     return path
@@ -105,6 +112,9 @@ class Dataset:
     def bank(self, object_id: str, reducer: str) -> ProfileBank:
         """The representative-profile bank of one object under one reducer (cached)."""
         self._object_meta(object_id)
+        if not valid_object_id(reducer):  # it names a folder
+            raise DatasetError(f"{preview(reducer)} is not a reducer name; dataset {self.name!r} has banks for: "
+                               f"{', '.join(self.reducers()) or 'none'}")
         key = (object_id, reducer)
         with self._lock:
             if key not in self._banks:
@@ -165,8 +175,8 @@ def load_npz(file: Path, required: tuple[str, ...]) -> dict[str, np.ndarray]:
             return {k: z[k] for k in z.files}
     except DatasetError:
         raise
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise DatasetError(f"{file}: corrupt or unreadable ({exc})") from exc
+    except UNREADABLE as exc:
+        raise DatasetError(f"{file}: corrupt or unreadable ({one_line(str(exc), 80)})") from None
 
 
 def read_versioned_json(file: Path, *, format: str, version: int, error: type[HapticfxError]) -> dict:
@@ -183,16 +193,48 @@ def read_versioned_json(file: Path, *, format: str, version: int, error: type[Ha
 
 
 def open_dataset(ref: str | os.PathLike, *, relative_to: Path | None = None) -> Dataset:
-    """Open a dataset by path or ``builtin:NAME``; reads only its metadata."""
+    """Open a dataset by path or ``builtin:NAME``; reads only its metadata (checked here)."""
     path = resolve_dataset_path(ref, relative_to=relative_to)
     meta_file = path / "dataset.json"
-    if not meta_file.is_file():
+    try:
+        found = meta_file.is_file()
+    except OSError as exc:  # a path the system refuses (too long, a loop)
+        raise DatasetError(f"{preview(str(path))}: cannot open ({exc.strerror})") from None
+    if not found:
         raise DatasetError(f"{path}: not a hapticfx dataset (no dataset.json)")
     meta = read_versioned_json(meta_file, format=FORMAT, version=VERSION, error=DatasetError)
+    _check_meta(meta, meta_file)
+    return Dataset(path, meta)
+
+
+def _check_meta(meta: dict, where: Path) -> None:
+    """The metadata every reader relies on: rates, length, objects with a mass, preprocessing."""
+    from .preprocess import Preprocessing
+
+    def number(key: str, value, lo: float, hi: float, integer: bool = False) -> None:
+        ok = isinstance(value, int) if integer else isinstance(value, (int, float))
+        if isinstance(value, bool) or not ok or not lo <= value <= hi:  # NaN fails the range test
+            raise DatasetError(f"expected {'an integer' if integer else 'a number'} in [{lo:g}, {hi:g}], got "
+                               f"{preview(value)}", source=str(where), key=key)
+
     for key in ("rate_hz", "n_samples", "objects"):
         if key not in meta:
-            raise DatasetError(f"{meta_file}: missing key {key!r}")
-    return Dataset(path, meta)
+            raise DatasetError(f"missing key {key!r}", source=str(where))
+    number("rate_hz", meta["rate_hz"], 1.0, 1e6)
+    number("raw_rate_hz", meta.get("raw_rate_hz", meta["rate_hz"]), 1.0, 1e6)
+    number("n_samples", meta["n_samples"], 1, 1_000_000, integer=True)
+    objects = meta["objects"]
+    if not isinstance(objects, dict) or not all(valid_object_id(o) and isinstance(v, dict) for o, v in objects.items()):
+        raise DatasetError("expected a mapping of object ids to their descriptions", source=str(where), key="objects")
+    for obj, info in objects.items():
+        number(f"objects.{obj}.mass_kg", info.get("mass_kg"), 1e-6, 1e4)
+    prep = meta.get("preprocessing", {})
+    if not isinstance(prep, dict):
+        raise DatasetError("expected a mapping", source=str(where), key="preprocessing")
+    try:
+        Preprocessing.from_dict(prep)
+    except HapticfxError as exc:
+        raise DatasetError(str(exc), source=str(where), key="preprocessing") from None
 
 
 class DatasetWriter:

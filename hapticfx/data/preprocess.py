@@ -37,14 +37,16 @@ class Preprocessing:
     trigger_fraction: float = 0.1
 
     def __post_init__(self):
-        valid_number(self.cutoff_hz, name="cutoff_hz", minimum=1e-3)
-        valid_number(self.rate_hz, name="rate_hz", minimum=1.0)
-        valid_number(self.pre_trigger_s, name="pre_trigger_s", minimum=0.0)
+        valid_number(self.cutoff_hz, name="cutoff_hz", minimum=1e-3, maximum=1e5)
+        valid_number(self.rate_hz, name="rate_hz", minimum=1.0, maximum=1e6)
+        valid_number(self.pre_trigger_s, name="pre_trigger_s", minimum=0.0, maximum=10.0)
         valid_number(self.trigger_fraction, name="trigger_fraction", minimum=1e-6, maximum=1.0)
-        if int(self.order) != self.order or not 1 <= self.order <= 12:
+        order = valid_number(self.order, name="order", minimum=1, maximum=12)
+        if int(order) != order:
             raise SignalError(f"order must be an integer in 1..12, got {self.order!r}")
-        if int(self.n_samples) != self.n_samples or self.n_samples < 8:
-            raise SignalError(f"n_samples must be an integer >= 8, got {self.n_samples!r}")
+        n = valid_number(self.n_samples, name="n_samples", minimum=8, maximum=1e6)
+        if int(n) != n:
+            raise SignalError(f"n_samples must be an integer in 8..1e6, got {self.n_samples!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)

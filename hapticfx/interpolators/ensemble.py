@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import user_path
 from ..errors import DatasetError, SignalError
 from ..interfaces import Interpolator, Profile, TrainingData
 from ..signal import valid_number, valid_signal, valid_velocity
@@ -133,7 +134,7 @@ class EnsembleInterpolator(Interpolator):
     name = NAME
 
     def __init__(self, *, table: str | os.PathLike | None = None, trim: float | None = None):
-        self.table_file = None if table is None else Path(table).expanduser()
+        self.table_file = None if table is None else user_path(table)
         self.trim = None if trim is None else valid_number(trim, name="interpolator_options.trim", minimum=0.0,
                                                            maximum=0.5)
         self.table: VelocityTable | None = None

@@ -28,7 +28,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import zipfile
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -37,7 +36,8 @@ from typing import Callable, Iterable
 import numpy as np
 
 from ..atomic import atomic_path
-from ..errors import CheckpointError
+from ..data.dataset import UNREADABLE
+from ..errors import CheckpointError, one_line
 from ..interfaces import Profile
 from .residual import bump, compose, weight
 
@@ -187,8 +187,8 @@ class VelocityTable:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
             meta = json.loads(str(arrays.pop("meta_json")))
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, json.JSONDecodeError) as exc:
-            raise CheckpointError(f"{path}: corrupt or unreadable velocity table ({exc})") from exc
+        except UNREADABLE as exc:  # json.JSONDecodeError is a ValueError
+            raise CheckpointError(f"{path}: corrupt or unreadable velocity table ({one_line(str(exc), 80)})") from None
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise CheckpointError(f"{path}: not a {FORMAT} file")
         if meta.get("version") != VERSION:

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from ..effect import Effect, check_effect, effect_from_mapping, load_effect, parse_actuator_section, read_yaml
+from ..atomic import user_path
 from ..errors import EffectError, HapticfxError, StudyError
 from ..params import doc, parse_params
 
@@ -213,7 +214,7 @@ def _stimulus(name, raw, *, source, base_dir, actuators) -> Stimulus:
     drops = None
     try:
         if "effect" in raw:
-            path = Path(_name(raw["effect"], source, f"{key}.effect")).expanduser()
+            path = user_path(_name(raw["effect"], source, f"{key}.effect"))
             effect = load_effect(path if path.is_absolute() else base_dir / path)
         else:
             rec = _mapping(raw["recorded"], source, f"{key}.recorded")

@@ -21,7 +21,7 @@ import os
 from pathlib import Path
 
 from hapticfx.errors import CheckpointError
-from hapticfx.atomic import atomic_path
+from hapticfx.atomic import atomic_path, user_path
 from hapticfx.data.dataset import read_versioned_json
 
 FORMAT = "hapticfx-neural-checkpoint"
@@ -68,7 +68,7 @@ def table_path(weights: Path) -> Path:
 
 def resolve(ref: str | os.PathLike) -> Path:
     """``model.safetensors`` of a checkpoint given as its directory or its file."""
-    p = Path(ref).expanduser()
+    p = user_path(ref)
     if p.is_dir():
         p = p / "model.safetensors"
     if p.suffix != ".safetensors":

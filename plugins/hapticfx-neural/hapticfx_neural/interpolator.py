@@ -14,6 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from hapticfx.atomic import user_path
 from hapticfx.errors import CheckpointError, SignalError
 from hapticfx.interfaces import Interpolator, Profile, TrainingData
 from hapticfx.interpolators.table import VelocityTable
@@ -50,7 +51,7 @@ class NeuralInterpolator(Interpolator):
                  config: str | os.PathLike | None = None):
         if not isinstance(cache, bool):
             raise SignalError(f"interpolator_options.cache must be true or false, got {cache!r}")
-        self.weights = None if weights is None else Path(weights).expanduser()
+        self.weights = None if weights is None else user_path(weights)
         self.use_table = cache
         self.threads = int(valid_number(threads, name="interpolator_options.threads", minimum=1, maximum=256))
         self.config = config
