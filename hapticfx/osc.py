@@ -29,6 +29,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
+from .errors import HapticfxError
 from .signal import MAX_VELOCITY_MPS
 
 log = logging.getLogger(__name__)
@@ -49,7 +50,7 @@ DROP_REASONS = (
 )
 
 
-class OscDecodeError(Exception):
+class OscDecodeError(HapticfxError):
     """A datagram that is not a well-formed OSC message; ``reason`` is a drop reason."""
 
     def __init__(self, reason: str, detail: str):

@@ -26,9 +26,10 @@ def register_actuators(register):
 
 @hookimpl
 def register_commands(app, bench):
-    from ..cli import bench_interpolators, bench_render, bench_startup, commands
+    from ..cli import bench_fuzz, bench_interpolators, bench_render, bench_startup, commands
 
     commands.register(app)
     bench_render.register(bench)
     bench_interpolators.register(bench)
     bench_startup.register(bench)
+    bench_fuzz.register(bench)

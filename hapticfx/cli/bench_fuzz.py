@@ -1,0 +1,65 @@
+"""``hapticfx bench fuzz``: mutated inputs through every gate, random overrides through the limiter."""
+
+from __future__ import annotations
+
+import time
+from typing import Optional
+
+import typer
+
+from ..errors import HapticfxError
+from ..timing import table
+
+
+def fuzz(
+    gates: Optional[list[str]] = typer.Argument(None, help="Gates to fuzz (default: all installed): effect, scene, "
+                                                "csv, dataset, checkpoint, osc, serial, at2, limits."),
+    inputs: int = typer.Option(100_000, "--inputs", min=1, help="Mutated inputs per gate."),
+    seed: int = typer.Option(0, "--seed", help="The same seed gives the same inputs."),
+    time_limit: float = typer.Option(1.0, "--time-limit", min=0.01, help="Seconds one input may take (else a hang)."),
+    overrides: int = typer.Option(10_000, "--overrides", min=1, help="limits gate: random effect overrides."),
+    signals: int = typer.Option(100, "--signals", min=1, help="limits gate: random profiles per override."),
+):
+    """Fuzz the input gates: every mutant must be accepted or refused in one line under 300 characters, within
+    the time limit, never with a traceback; and random profiles, gains and limit overrides must never take the
+    output past an actuator's hard limits. Prints the counts; exit code 1 if anything failed."""
+    from ..fuzz.gates import gates as installed
+    from ..fuzz.limits import check_limits
+    from ..fuzz.runner import fuzz_gate, peak_rss_mb
+
+    available = installed()
+    names = gates or [*available, "limits"]
+    unknown = [g for g in names if g not in available and g != "limits"]
+    if unknown:
+        raise HapticfxError(f"unknown or uninstalled gate(s) {', '.join(unknown)}; available: "
+                            f"{', '.join([*available, 'limits'])}")
+    rows, failed, examples = [], 0, []
+    for name in names:
+        t0 = time.perf_counter()
+        if name == "limits":
+            r = check_limits(overrides, signals, seed=seed)
+            rows.append(["limits", f"{r.overrides} overrides x {signals} profiles = {r.signals}", "-", "-", "-",
+                         "-", "-", f"{r.violations} above a hard limit", f"{time.perf_counter() - t0:.0f}",
+                         f"{peak_rss_mb():.0f}"])
+            failed += r.violations
+            if r.worst:
+                examples.append(f"limits: {r.worst}")
+            continue
+        say = (lambda n, _name=name: typer.echo(f"{_name}: {n}/{inputs}", err=True))
+        r = fuzz_gate(available[name], inputs, seed=seed, time_limit_s=time_limit, progress=say)
+        rows.append([name, r.inputs, r.accepted, r.refused, r.bad_messages, r.tracebacks, r.hangs,
+                     f"longest message {r.longest_message}, slowest {r.slowest_s * 1e3:.0f} ms",
+                     f"{time.perf_counter() - t0:.0f}", f"{peak_rss_mb():.0f}"])
+        failed += r.failures
+        examples += [f"{name}: {kind}: {text}" for kind, text in r.examples.items()]
+    typer.echo(f"seed {seed}, time limit {time_limit:g} s per input")
+    typer.echo(table(["gate", "inputs", "accepted", "refused", "bad messages", "tracebacks", "hangs", "notes",
+                      "seconds", "peak RSS MiB (process)"], rows))
+    for example in examples:
+        typer.echo(example)
+    if failed:
+        raise typer.Exit(1)
+
+
+def register(bench: typer.Typer) -> None:
+    bench.command("fuzz")(fuzz)

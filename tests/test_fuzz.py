@@ -1,0 +1,68 @@
+"""Fuzzing in the suite: every gate takes a few hundred mutants cleanly; the limiter holds the hard limits.
+
+`hapticfx bench fuzz` runs 100,000 inputs per gate (docs/benchmarks.md); these runs are small enough for CI.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import pytest
+
+from hapticfx.fuzz.gates import gates
+from hapticfx.fuzz.limits import check_limits
+from hapticfx.fuzz.mutate import mutate
+from hapticfx.fuzz.runner import fuzz_gate
+
+
+@pytest.mark.parametrize("name", list(gates()))
+def test_every_gate_refuses_mutants_in_one_short_line(name):
+    r = fuzz_gate(gates()[name], 250, seed=11)
+    assert r.inputs == 250 and (r.tracebacks, r.hangs, r.bad_messages) == (0, 0, 0), r.examples
+    assert r.refused > 0 and r.accepted > 0  # both paths ran: the seeds pass, mutants are refused
+
+
+def test_random_overrides_never_take_the_output_past_the_hard_limits():
+    r = check_limits(30, 25, seed=3)
+    assert (r.overrides, r.signals, r.violations) == (30, 750, 0), r.worst
+
+
+def test_mutants_are_reproducible_and_differ_from_their_seed():
+    import numpy as np
+
+    seed = b"name: brick\nobject: concrete-brick\n"
+    a = [mutate(seed, np.random.default_rng([1, i])) for i in range(50)]
+    assert a == [mutate(seed, np.random.default_rng([1, i])) for i in range(50)]
+    assert sum(x != seed for x in a) >= 45
+
+
+@pytest.mark.parametrize("text, expected", [  # found by the fuzzer: each was a traceback
+    ("actuator: {type: wav, path: ~nobody-here/out.wav}", "ok"),
+    ("model: {type: data-driven, dataset: 'builtin:" + "x" * 300 + "'}", "no built-in dataset"),
+    ("model: {type: data-driven, dataset: '" + "9" * 300 + ":helmet-drops'}", "cannot open (File name too long)"),
+    ("model: {type: data-driven, reducer: " + "x" * 300 + "}", "is not a reducer name"),
+])
+def test_regressions_found_by_the_fuzzer(tmp_path, text, expected):
+    from hapticfx.errors import HapticfxError
+    from hapticfx.pipeline import Pipeline
+
+    base = {"model": "model: {type: kinetic-energy}", "actuator": "actuator: {type: memory}"}
+    base[text.split(":")[0]] = text
+    path = tmp_path / "e.yaml"
+    path.write_text(f"name: x\nobject: concrete-brick\n{base['model']}\n{base['actuator']}\n")
+    if expected == "ok":
+        Pipeline.from_effect(path).render()
+        return
+    with pytest.raises(HapticfxError, match=re.escape(expected)):
+        Pipeline.from_effect(path).render()
+
+
+def test_the_command_reports_counts_and_fails_on_nothing_here():
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "fuzz", "osc", "serial", "limits", "--inputs", "100",
+                        "--overrides", "5", "--signals", "5"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "| osc " in r.stdout and "| limits " in r.stdout and "0 above a hard limit" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "fuzz", "nope"], capture_output=True, text=True)
+    assert r.returncode == 2 and "unknown or uninstalled gate(s) nope" in r.stderr
