@@ -198,7 +198,8 @@ print(json.dumps({"build_s": t1 - t0, "first_impact_s": t2 - t1, "failed": s["fa
 SCENE_MODELS = (
     ("physics (kinetic-energy)", {"type": "kinetic-energy"}),
     ("data-driven, linear", {"type": "data-driven", "interpolator": "linear"}),
-    ("neural (data-driven, convbilstm)", {"type": "data-driven", "interpolator": "convbilstm"}),
+    ("data-driven, ensemble", {"type": "data-driven", "interpolator": "ensemble"}),
+    ("neural (data-driven, convbilstm, table)", {"type": "data-driven", "interpolator": "convbilstm"}),
 )
 
 

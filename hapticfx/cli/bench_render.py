@@ -20,8 +20,8 @@ from ..timing import Timing, ms, table
 MODELS = (
     ("kinetic-energy", {"type": "kinetic-energy"}),
     ("data-driven/linear", {"type": "data-driven", "interpolator": "linear"}),
-    ("data-driven/convbilstm (cached)", {"type": "data-driven", "interpolator": "convbilstm",
-                                        "interpolator_options": {"cache": True}}),
+    ("data-driven/ensemble", {"type": "data-driven", "interpolator": "ensemble"}),
+    ("data-driven/convbilstm (table)", {"type": "data-driven", "interpolator": "convbilstm"}),
     ("data-driven/convbilstm (direct)", {"type": "data-driven", "interpolator": "convbilstm",
                                         "interpolator_options": {"cache": False}}),
     ("contact", {"type": "contact"}),
@@ -30,7 +30,7 @@ MODELS = (
 
 # Start-up of `play` for a physics-only effect, the linear data-driven one and the paper's method.
 STARTUP = [(label, model) for label, model in MODELS
-           if label in ("kinetic-energy", "data-driven/linear", "data-driven/convbilstm (cached)")]
+           if label in ("kinetic-energy", "data-driven/linear", "data-driven/ensemble", "data-driven/convbilstm (table)")]
 
 
 def _effect(tmp: Path, label: str, model: dict) -> Path:
