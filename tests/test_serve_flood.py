@@ -229,3 +229,25 @@ def test_bench_serve_runs_and_reports_median_and_p99():
     assert out.returncode == 0, out.stderr
     assert "| serve: datagram arrival -> actuator" in out.stdout and "p99 ms" in out.stdout
     assert '"accepted": 20' in out.stderr  # 10 warm-up + 10 timed, none dropped
+
+
+def test_serve_that_cannot_write_its_file_output_exits_2(tmp_path):
+    """Files capped at 4 kB (RLIMIT_FSIZE: the OS refuses the write, as a full disk does)."""
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(SCENE.format(wav=tmp_path / "helmet.wav", rate=0, burst=500))
+    code = ("import resource, signal, sys; signal.signal(signal.SIGXFSZ, signal.SIG_IGN); "
+            "resource.setrlimit(resource.RLIMIT_FSIZE, (4000, 4000)); "
+            "from hapticfx.cli import main; main(sys.argv[1:])")
+    proc = subprocess.Popen([sys.executable, "-c", code, "serve", str(scene), "--duration", "3"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()
+    assert line.startswith("listening on 127.0.0.1:"), line + proc.stderr.read()
+    port = int(line.split()[2].rsplit(":", 1)[1])
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+        for _ in range(5):
+            client.sendto(osc("/hapticfx/impact", "concrete-brick", (3.0, "f")), ("127.0.0.1", port))
+            time.sleep(0.05)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 2, (out, err)
+    assert "5 impact(s) failed" in err and "File too large" in err and "Traceback" not in err
+    assert not (tmp_path / "helmet.wav").exists()

@@ -80,6 +80,7 @@ class WavActuator(Actuator):
         self.spec = spec or _plain_spec(params.rate_hz)
         self.limits = self.spec.limits
         self._writer: WavWriter | None = None
+        self._failed: DeviceError | None = None
         self._lock = threading.Lock()
 
     def open(self) -> None:
@@ -95,13 +96,21 @@ class WavActuator(Actuator):
             raise DeviceError(f"wav actuator runs at {self.spec.rate_hz} Hz, got a signal at {signal.rate_hz} Hz")
         block = np.atleast_2d(signal.samples)
         with self._lock:
-            if self._writer is None:
-                self._writer = WavWriter(self.path, self.spec.rate_hz, block.shape[0], fmt=self.params.format)
-            self._writer.write(block)
+            if self._failed is not None:
+                raise self._failed  # the file is gone: every later impact fails the same way
+            try:
+                if self._writer is None:
+                    self._writer = WavWriter(self.path, self.spec.rate_hz, block.shape[0], fmt=self.params.format)
+                self._writer.write(block)
+            except DeviceError as exc:
+                self._failed, self._writer = exc, None
+                raise
 
     def close(self) -> None:
         with self._lock:
             writer, self._writer = self._writer, None
+            if self._failed is not None:
+                raise DeviceError(f"{self.path}: not written ({self._failed})")
             if writer is not None:
                 writer.close()
 
