@@ -192,6 +192,8 @@ actuator: {type: memory}
      "interpolator_options.trim must be <= 0.5, got 2.0"),
     (("actuator: {type: memory}", "actuator: {type: memory, limits: {rms: 0.9}}"),
      "actuator.limits: rms 0.9 would raise the actuator's hard limit 0.7"),
+    (("actuator: {type: memory}", "actuator: {type: memory, limits: {rms_window_s: 60}}"),
+     "actuator.limits: rms_window_s 60.0 would lengthen the actuator's RMS window 0.05"),
 ])
 def test_validate_runs_every_check_play_runs(tmp_path, change, expected):
     path = tmp_path / "dd.yaml"
