@@ -1,11 +1,12 @@
 """Light signal processing for the playback path (numpy only).
 
 Playback must start fast, and importing ``scipy.signal`` alone costs about a
-second. These two operations follow scipy's designs and are tested against
-them (tests/test_dsp.py): :func:`resample_poly` matches
-``scipy.signal.resample_poly`` (Kaiser beta 5 FIR, zero padding), and
-:func:`zero_phase_butterworth` applies the magnitude-squared response of a
-bilinear Butterworth filter, as ``sosfiltfilt`` does in steady state.
+second. :func:`resample_poly` follows ``scipy.signal.resample_poly`` (Kaiser
+beta 5 FIR, zero padding) and is tested against it (tests/test_dsp.py); it runs
+the filter as one small matrix product per call, its polyphase plan computed
+once per ratio. :func:`causal_butterworth` is a cascade of bilinear 2nd-order
+Butterworth sections applied through their frequency response: causal, so a
+signal that starts at zero comes out starting at zero (no pre-ringing click).
 """
 
 from __future__ import annotations
@@ -14,9 +15,10 @@ import math
 from functools import lru_cache
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=16)
 def _polyphase_fir(up: int, down: int) -> np.ndarray:
     """Linear-phase low-pass FIR as resample_poly designs it, scaled by ``up``."""
     max_rate = max(up, down)
@@ -28,8 +30,23 @@ def _polyphase_fir(up: int, down: int) -> np.ndarray:
     return h
 
 
-def _next_pow2(n: int) -> int:
-    return 1 << (n - 1).bit_length()
+@lru_cache(maxsize=16)
+def _polyphase_plan(up: int, down: int) -> tuple[np.ndarray, int]:
+    """``(M, lo)``: output ``b * up + t`` is ``x[b * down + lo : b * down + lo + K] @ M[:, t]``."""
+    h = _polyphase_fir(up, down)
+    half = (h.size - 1) // 2
+    taps = []
+    for t in range(up):
+        c, r = divmod(t * down + half, up)  # the input sample aligned with tap r of output t
+        j = np.arange((h.size - 1 - r) // up + 1)
+        taps.append((c - j, h[r + j * up]))
+    lo = min(int(idx.min()) for idx, _ in taps)
+    k = max(int(idx.max()) for idx, _ in taps) - lo + 1
+    m = np.zeros((k, up))
+    for t, (idx, weights) in enumerate(taps):
+        m[idx - lo, t] = weights
+    m.setflags(write=False)
+    return m, lo
 
 
 def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
@@ -39,45 +56,70 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
     x = np.asarray(x, dtype=np.float64)
     if up == down == 1:
         return x.copy()
-    h = _polyphase_fir(up, down)
-    half = (h.size - 1) // 2
+    m, lo = _polyphase_plan(up, down)
     n_in = x.shape[-1]
     n_out = -(-n_in * up // down)
-    stuffed = np.zeros(x.shape[:-1] + (n_in * up,))
-    stuffed[..., ::up] = x
-    n_full = stuffed.shape[-1] + h.size - 1
-    nfft = _next_pow2(n_full)
-    full = np.fft.irfft(np.fft.rfft(stuffed, nfft) * np.fft.rfft(h, nfft), nfft)[..., :n_full]
-    return full[..., half : half + n_out * down : down][..., :n_out]
+    blocks = -(-n_out // up)
+    left = max(0, -lo)
+    right = max(0, (blocks - 1) * down + lo + m.shape[0] - n_in)
+    padded = np.pad(x, [(0, 0)] * (x.ndim - 1) + [(left, right)])
+    start = lo + left
+    windows = sliding_window_view(padded, m.shape[0], axis=-1)[..., start:start + (blocks - 1) * down + 1:down, :]
+    return (windows @ m).reshape(x.shape[:-1] + (blocks * up,))[..., :n_out]
 
 
-def butterworth_power(freqs_hz: np.ndarray, rate_hz: float, *, low_hz: float | None, high_hz: float | None,
-                      order: int) -> np.ndarray:
-    """|H(f)|^2 of a digital (bilinear) Butterworth high-, low- or band-pass of ``order``."""
-    w = np.tan(np.pi * np.clip(freqs_hz / rate_hz, 0.0, 0.5 - 1e-12))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if low_hz and high_hz:
-            wl, wh = np.tan(np.pi * low_hz / rate_hz), np.tan(np.pi * high_hz / rate_hz)
-            ratio = (w * w - wl * wh) / ((wh - wl) * w)
-        elif low_hz:
-            ratio = np.tan(np.pi * low_hz / rate_hz) / w
-        elif high_hz:
-            ratio = w / np.tan(np.pi * high_hz / rate_hz)
-        else:
-            return np.ones_like(w)
-        power = 1.0 / (1.0 + np.abs(ratio) ** (2 * order))
-    return np.nan_to_num(power, nan=0.0)
+def _next_pow2(n: int) -> int:
+    return 1 << (n - 1).bit_length()
 
 
-def zero_phase_butterworth(x: np.ndarray, rate_hz: float, *, low_hz: float | None, high_hz: float | None,
-                           order: int = 2) -> np.ndarray:
-    """Forward-backward Butterworth along the last axis, applied in the frequency domain.
+def _sections(rate_hz: float, low_hz: float | None, high_hz: float | None) -> list[tuple[tuple, tuple]]:
+    """Bilinear 2nd-order Butterworth sections ``(b, a)``: a high-pass at ``low_hz``, a low-pass at ``high_hz``."""
+    out = []
+    for edge, high_pass in ((low_hz, True), (high_hz, False)):
+        if edge:
+            k = math.tan(math.pi * edge / rate_hz)
+            norm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
+            a = (1.0, 2.0 * (k * k - 1.0) * norm, (1.0 - math.sqrt(2.0) * k + k * k) * norm)
+            b = (norm, -2.0 * norm, norm) if high_pass else (k * k * norm, 2.0 * k * k * norm, k * k * norm)
+            out.append((b, a))
+    return out
 
-    The signal is zero-padded to twice its length so the response does not wrap around.
+
+@lru_cache(maxsize=64)
+def _response(rate_hz: float, low_hz: float | None, high_hz: float | None, nfft: int) -> np.ndarray:
+    z = np.exp(-2j * np.pi * np.arange(nfft // 2 + 1) / nfft)
+    h = np.ones_like(z)
+    for b, a in _sections(rate_hz, low_hz, high_hz):
+        h *= (b[0] + b[1] * z + b[2] * z * z) / (a[0] + a[1] * z + a[2] * z * z)
+    h.setflags(write=False)
+    return h
+
+
+def causal_butterworth(x: np.ndarray, rate_hz: float, *, low_hz: float | None, high_hz: float | None) -> np.ndarray:
+    """2nd-order Butterworth high-pass (``low_hz``) and/or low-pass (``high_hz``) along the last axis, causal.
+
+    Applied as the sections' frequency response on a zero-padded FFT long enough
+    for the impulse response to die out (no wrap-around); the output keeps the
+    input's length.
     """
     x = np.asarray(x, dtype=np.float64)
     n = x.shape[-1]
-    nfft = _next_pow2(2 * n)
-    gain = butterworth_power(np.fft.rfftfreq(nfft, 1.0 / rate_hz), rate_hz, low_hz=low_hz, high_hz=high_hz,
-                             order=order)
-    return np.fft.irfft(np.fft.rfft(x, nfft) * gain, nfft)[..., :n]
+    slowest = min(e for e in (low_hz, high_hz) if e)
+    ring = int(math.ceil(20.0 * rate_hz / (2 * math.pi * slowest)))  # 20 time constants of the slowest pole
+    nfft = _next_pow2(n + ring)
+    return np.fft.irfft(np.fft.rfft(x, nfft) * _response(rate_hz, low_hz, high_hz, nfft), nfft)[..., :n]
+
+
+def taper(x: np.ndarray, rate_hz: float, *, fade_in_s: float, fade_out_s: float) -> np.ndarray:
+    """``x`` with raised-cosine fades at both ends, so that it starts and ends at zero."""
+    x = np.array(x, dtype=np.float64)
+    n = x.shape[-1]
+    for count, at_end in ((int(round(fade_in_s * rate_hz)), False), (int(round(fade_out_s * rate_hz)), True)):
+        count = min(count, n // 2)
+        if count:
+            ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(count) / count)  # 0 ... just under 1
+            if at_end:
+                x[..., n - count:] *= ramp[::-1]
+            else:
+                x[..., :count] *= ramp
+    return x

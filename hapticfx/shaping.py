@@ -1,17 +1,23 @@
 """Shaping: from a model's profile to an actuator's input.
 
-Gain and scale to the actuator's normalised range, polyphase resampling from
-the profile rate to the actuator rate, and a zero-phase band limit to the
-actuator's usable band. The safety limiter comes after this, always.
+Gain and scale to the actuator's normalised range; the actuator's band, applied
+at the profile's own rate with a causal Butterworth (a profile at 1 kHz holds
+nothing above 500 Hz, so that is where the work is small); short raised-cosine
+fades, so every output starts and ends at zero (no click at onset, none where a
+profile stops); then polyphase resampling to the actuator's rate. The safety
+limiter comes after this, always.
 """
 
 from __future__ import annotations
 
 from fractions import Fraction
 
-from .dsp import resample_poly, zero_phase_butterworth
+from .dsp import causal_butterworth, resample_poly, taper
 from .interfaces import ActuatorSpec
 from .signal import Signal, valid_number
+
+FADE_IN_S = 0.002   # shorter than any onset a model puts after its first sample
+FADE_OUT_S = 0.010
 
 
 def resample(signal: Signal, rate_hz: float) -> Signal:
@@ -24,15 +30,14 @@ def resample(signal: Signal, rate_hz: float) -> Signal:
     return Signal(out, signal.rate_hz * ratio.numerator / ratio.denominator)
 
 
-def band_limit(signal: Signal, band_hz: tuple[float, float], *, order: int = 2) -> Signal:
-    """Zero-phase Butterworth band limit; an edge at 0 or near Nyquist is left open."""
+def band_limit(signal: Signal, band_hz: tuple[float, float]) -> Signal:
+    """Causal 2nd-order Butterworth band limit; an edge at 0 or near Nyquist is left open."""
     nyq = signal.rate_hz / 2
     lo = band_hz[0] if 0 < band_hz[0] < nyq else None
     hi = band_hz[1] if 0 < band_hz[1] < 0.95 * nyq else None
     if lo is None and hi is None:
         return signal
-    return signal.with_samples(zero_phase_butterworth(signal.samples, signal.rate_hz, low_hz=lo, high_hz=hi,
-                                                      order=order))
+    return signal.with_samples(causal_butterworth(signal.samples, signal.rate_hz, low_hz=lo, high_hz=hi))
 
 
 def shape(profile: Signal, spec: ActuatorSpec, *, gain: float, scale: float) -> Signal:
@@ -42,7 +47,7 @@ def shape(profile: Signal, spec: ActuatorSpec, *, gain: float, scale: float) -> 
     ``1 / full_scale_g``); ``gain`` is the effect's gain.
     """
     out = profile.with_samples(profile.samples * (gain * scale))
-    out = resample(out, spec.rate_hz)
     if spec.waveform:
         out = band_limit(out, spec.band_hz)
-    return out
+    out = out.with_samples(taper(out.samples, out.rate_hz, fade_in_s=FADE_IN_S, fade_out_s=FADE_OUT_S))
+    return resample(out, spec.rate_hz)

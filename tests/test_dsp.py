@@ -7,9 +7,12 @@ import pytest
 import scipy.signal as ss
 
 from hapticfx.actuators.files import read_wav, write_wav
-from hapticfx.dsp import butterworth_power, resample_poly, zero_phase_butterworth
-from hapticfx.shaping import band_limit, resample
+from hapticfx.dsp import causal_butterworth, resample_poly, taper
+from hapticfx.interfaces import ActuatorSpec
+from hapticfx.shaping import shape
 from hapticfx.signal import Signal
+
+VIBRO = ActuatorSpec(48000.0, 5.0, (20.0, 15000.0))
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
@@ -22,35 +25,48 @@ def test_resample_matches_scipy(dtype, up, down):
     assert np.max(np.abs(ours - ref)) < 1e-12
 
 
-@pytest.mark.parametrize("low, high", [(20, None), (None, 800), (30, 800), (20, 15000)])
-def test_butterworth_power_matches_scipy_design(low, high):
-    fs = 48000
-    band = [low, high] if low and high else (low or high)
-    kind = "bandpass" if low and high else ("highpass" if low else "lowpass")
-    f, h = ss.sosfreqz(ss.butter(2, band, kind, fs=fs, output="sos"), worN=4096, fs=fs)
-    assert np.max(np.abs(butterworth_power(f, fs, low_hz=low, high_hz=high, order=2) - np.abs(h) ** 2)) < 1e-9
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("fs, low, high", [(1000, 20, None), (1000, None, 300), (1000, 30, 400), (48000, 20, 15000)])
+def test_causal_butterworth_equals_lfilter_of_scipys_design(dtype, fs, low, high):
+    t = np.arange(2000) / fs
+    x = ((t > 0.05) * np.exp(-(t - 0.05) * 40) * np.sin(2 * np.pi * 180 * (t - 0.05))).astype(dtype)
+    ref = x.astype(np.float64)
+    for edge, kind in ((low, "highpass"), (high, "lowpass")):
+        if edge:
+            ref = ss.lfilter(*ss.butter(2, edge, kind, fs=fs), ref)
+    ours = causal_butterworth(x, fs, low_hz=low, high_hz=high)
+    assert ours.dtype == np.float64 and np.max(np.abs(ours - ref)) < 1e-9 * max(1.0, np.max(np.abs(ref)))
+    assert np.max(np.abs(ours[: int(0.05 * fs)])) < 1e-12  # causal: nothing before the onset
 
 
-def test_zero_phase_filter_agrees_with_sosfiltfilt_on_an_impact():
-    fs = 48000
-    t = np.arange(24000) / fs
-    onset = t > 0.1
-    x = onset * np.exp(-(t - 0.1) * 40) * np.sin(2 * np.pi * 180 * (t - 0.1))
-    ours = zero_phase_butterworth(x, fs, low_hz=30, high_hz=800)
-    ref = ss.sosfiltfilt(ss.butter(2, [30, 800], "bandpass", fs=fs, output="sos"), x)
-    assert np.max(np.abs(ours - ref)) < 1e-3 * np.max(np.abs(x))
-    lag = np.argmax(ss.correlate(ours, x, mode="full", method="fft")) - (x.size - 1)
-    assert lag == 0  # zero phase
+def test_taper_starts_and_ends_at_zero_and_leaves_the_middle():
+    x = np.ones((2, 1000))
+    y = taper(x, 1000.0, fade_in_s=0.002, fade_out_s=0.01)
+    assert np.all(y[:, 0] == 0.0) and np.all(y[:, -1] < 0.03) and np.all(y[:, 2:990] == 1.0)
+    assert np.all(np.diff(y[0, :3]) > 0) and np.all(np.diff(y[0, -11:]) < 0)
+    assert np.array_equal(taper(x[:, :3], 1000.0, fade_in_s=1.0, fade_out_s=1.0)[:, 1], [1.0, 1.0])
 
 
 @pytest.mark.parametrize("value", [0.0, 1e-12, 1.0, 1e6])
 def test_shaping_is_finite_and_linear_at_extreme_levels(value):
     sig = Signal(np.full(500, value), 1000.0)
-    out = band_limit(resample(sig, 48000), (20.0, 15000.0))
+    out = shape(sig, VIBRO, gain=1.0, scale=1.0)
     assert out.rate_hz == 48000 and np.all(np.isfinite(out.samples))
-    unit = band_limit(resample(Signal(np.ones(500), 1000.0), 48000), (20.0, 15000.0))
+    unit = shape(Signal(np.ones(500), 1000.0), VIBRO, gain=1.0, scale=1.0)
     # FFT rounding is relative to the largest sample, so the tolerance scales with the level
     assert np.allclose(out.samples, unit.samples * value, rtol=1e-9, atol=1e-12 * value * np.abs(unit.samples).max())
+
+
+@pytest.mark.parametrize("spec", [VIBRO, ActuatorSpec(48000.0, 5.0, (30.0, 800.0)),
+                                  ActuatorSpec(1000.0, 12.0, (0.0, 500.0), waveform=False)])
+def test_shaped_output_starts_and_ends_at_zero(spec):
+    """A square pulse from the first sample (the kinetic-energy model) and a profile cut off mid-vibration."""
+    square = np.zeros(500)
+    square[:30] = 1.0
+    cut = np.sin(2 * np.pi * 60 * np.arange(500) / 1000.0)
+    for profile in (square, cut):
+        out = shape(Signal(profile, 1000.0), spec, gain=1.0, scale=1.0).samples
+        assert abs(out[0]) < 1e-3 and abs(out[-1]) < 1e-3, (out[0], out[-1])
 
 
 @pytest.mark.parametrize("fmt, step", [("pcm16", 1 / 32767), ("pcm24", 1 / 8388607), ("float32", 6e-8)])
