@@ -1,4 +1,4 @@
-"""`hapticfx bench startup`: fresh processes, ratios against a baseline of the same run, heavy imports named."""
+"""Benchmark commands that time the path users run: `bench startup` (cold start) and `bench render` (per stage)."""
 
 from __future__ import annotations
 
@@ -28,3 +28,12 @@ def test_missing_effects_are_named():
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "startup", "nope.yaml", "--runs", "3"],
                        cwd=REPO, capture_output=True, text=True)
     assert r.returncode == 2 and "effect file(s) not found: nope.yaml" in r.stderr
+
+
+def test_bench_render_times_each_stage_with_the_effects_own_actuator():
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "render", "effects/falling_brick.yaml",
+                        "effects/families/tapping.yaml", "--repeat", "5"], cwd=REPO, capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "| effects/falling_brick.yaml" in r.stdout and "vibro-transducer 48000 Hz" in r.stdout
+    assert "haptuator 48000 Hz" in r.stdout and "| model" in r.stdout and "| limiter" in r.stdout

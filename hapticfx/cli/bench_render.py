@@ -1,104 +1,90 @@
-"""``hapticfx bench render``: render latency per model and start-up time of ``play``."""
+"""``hapticfx bench render``: render latency per effect file, stage by stage, with the effect's real actuator spec."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-import tempfile
 import time
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 import typer
-import yaml
 
 from ..errors import HapticfxError
 from ..timing import Timing, ms, table
 
-# (label, model section): every model an effect can use without training.
-MODELS = (
-    ("kinetic-energy", {"type": "kinetic-energy"}),
-    ("data-driven/linear", {"type": "data-driven", "interpolator": "linear"}),
-    ("data-driven/ensemble", {"type": "data-driven", "interpolator": "ensemble"}),
-    ("data-driven/convbilstm (table)", {"type": "data-driven", "interpolator": "convbilstm"}),
-    ("data-driven/convbilstm (direct)", {"type": "data-driven", "interpolator": "convbilstm",
-                                        "interpolator_options": {"cache": False}}),
-    ("contact", {"type": "contact"}),
-)
+# The falling brick in every model the project ships, and a contact-model family.
+DEFAULT_EFFECTS = ("effects/falling_brick_kinetic.yaml", "effects/falling_brick_linear.yaml",
+                   "effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml",
+                   "effects/families/tapping.yaml")
+STAGES = ("model", "shaping", "limiter", "whole render")
 
 
-# Start-up of `play` for a physics-only effect, the linear data-driven one and the paper's method.
-STARTUP = [(label, model) for label, model in MODELS
-           if label in ("kinetic-energy", "data-driven/linear", "data-driven/ensemble", "data-driven/convbilstm (table)")]
+def _time_stages(pipeline, velocity: float) -> tuple[float, float, float, float]:
+    """Seconds of model, shaping and limiter for one impact, and of ``Pipeline.render`` itself."""
+    from ..interfaces import Impact
+    from ..shaping import shape
 
-
-def _effect(tmp: Path, label: str, model: dict) -> Path:
-    path = tmp / f"{label.replace('/', '-').replace(' ', '')}.yaml"
-    path.write_text(yaml.safe_dump({
-        "name": "bench", "object": "concrete-brick", "velocity_mps": 3.8, "model": model,
-        "actuator": {"type": "memory", "rate_hz": 48000.0},
-    }))
-    return path
-
-
-def _time_command(cmd: list[str], repeat: int) -> Timing:
-    """Wall time of a command in a fresh process, ``repeat`` runs."""
-    out = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        subprocess.run(cmd, check=True, capture_output=True, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
-        out.append(time.perf_counter() - t0)
-    return Timing(tuple(out))
+    impact = Impact(pipeline.effect.object_id, velocity)
+    t0 = time.perf_counter()
+    profile = pipeline.model.render(impact)
+    t1 = time.perf_counter()
+    shaped = shape(profile, pipeline.actuator.spec, gain=pipeline.gain, scale=pipeline.scale)
+    t2 = time.perf_counter()
+    pipeline.limiter.process(shaped.samples)
+    t3 = time.perf_counter()
+    pipeline.render(Impact(impact.object, velocity * (1 + 1e-9)))  # a velocity no model has cached yet
+    return t1 - t0, t2 - t1, t3 - t2, time.perf_counter() - t3
 
 
 def render(
-    repeat: int = typer.Option(200, help="Timed renders per model."),
-    startup_runs: int = typer.Option(7, help="Timed runs of `hapticfx play` in a fresh process."),
+    effects: Optional[list[Path]] = typer.Argument(None, help="Effect files (default: the falling brick with every "
+                                                  "shipped model, and the tapping family on the contact model)."),
+    repeat: int = typer.Option(200, "--repeat", min=5, help="Timed renders per effect."),
+    direct: bool = typer.Option(True, "--direct/--no-direct", help="Also time the ConvBiLSTM by direct inference "
+                                "(needs torch)."),
 ):
-    """Render latency per model (median, p99; velocity between recorded ones, 48 kHz memory actuator)
-    and the start-up time of `hapticfx play` for a physics-only effect."""
+    """Render latency per impact with each effect's own actuator spec (rate, band, limits): the model, shaping
+    and the safety limiter timed apart, and the whole `Pipeline.render`; median and p99, ratios to the first."""
     from ..pipeline import Pipeline
 
-    pipelines = {}
-    with tempfile.TemporaryDirectory() as tmpdir:
-        tmp = Path(tmpdir)
-        for label, model in MODELS:
-            try:
-                pipelines[label] = Pipeline.from_effect(_effect(tmp, label, model))
-            except HapticfxError as exc:
-                typer.echo(f"skipped {label}: {exc}", err=True)
-        # Every render gets a fresh velocity (no model cache can answer it), and the models take
-        # turns, so a change in machine load falls on all of them alike.
-        rng = np.random.default_rng(0)
-        velocities = rng.uniform(2.45, 5.2, size=repeat + 5)
-        times = {label: [] for label in pipelines}
-        for i, v in enumerate(velocities):
-            for label, pipeline in pipelines.items():
-                t0 = time.perf_counter()
-                pipeline.render(velocity=float(v))
-                if i >= 5:  # the first five are warm-up
-                    times[label].append(time.perf_counter() - t0)
-        base = Timing(tuple(times["kinetic-energy"])).median
-        rows = []
-        for label, samples in times.items():
-            t = Timing(tuple(samples))
-            rows.append([label, ms(t.median), ms(t.p99), ms(t.iqr), f"{t.median / base:.2f}"])
-        typer.echo(f"render latency per impact (model + shaping to 48 kHz + limiter), {repeat} renders per model, "
-                   "interleaved; velocities uniform in [2.45, 5.2] m/s, a new one each render")
-        typer.echo(table(["model", "median ms", "p99 ms", "IQR ms", "x kinetic-energy"], rows))
-        imp = _time_command([sys.executable, "-c", "import hapticfx"], startup_runs)
-        startup = [["python -c 'import hapticfx'", ms(imp.median), ms(imp.p99), "1.00"]]
-        for label, model in STARTUP:
-            if label not in pipelines:
-                continue
-            effect = _effect(tmp, f"startup-{label}", model)
-            t = _time_command([sys.executable, "-m", "hapticfx", "play", str(effect), "--device", "memory"],
-                              startup_runs)
-            startup.append([f"hapticfx play <{label} effect> --device memory", ms(t.median), ms(t.p99),
-                            f"{t.median / imp.median:.2f}"])
-    typer.echo(f"\nstart-up to the end of one impact, fresh process, {startup_runs} runs")
-    typer.echo(table(["what", "median ms", "p99 ms", "x python -c 'import hapticfx'"], startup))
+    paths = [Path(p) for p in (effects or DEFAULT_EFFECTS)]
+    missing = [str(p) for p in paths if not p.is_file()]
+    if missing:
+        raise HapticfxError(f"effect file(s) not found: {', '.join(missing)} (run from the repository root or "
+                            "name the files)")
+    pipelines = {str(p): Pipeline.from_effect(p, device="memory") for p in paths}
+    if direct and effects is None:
+        import dataclasses
+
+        from ..effect import load_effect
+
+        e = load_effect(Path("effects/falling_brick_convbilstm.yaml"))
+        e = dataclasses.replace(e, model=dataclasses.replace(
+            e.model, options={**e.model.options, "interpolator_options": {"cache": False}}))
+        try:
+            pipelines["effects/falling_brick_convbilstm.yaml, cache: false"] = Pipeline(e, device="memory")
+        except HapticfxError as exc:
+            typer.echo(f"skipped direct ConvBiLSTM inference: {exc}", err=True)
+    # A fresh velocity for every render (no per-velocity cache can answer it); effects take turns, so a change
+    # in machine load falls on all of them alike.
+    velocities = np.random.default_rng(0).uniform(2.45, 5.2, size=repeat + 5)
+    times: dict[str, list[tuple]] = {label: [] for label in pipelines}
+    for i, v in enumerate(velocities):
+        for label, pipeline in pipelines.items():
+            stages = _time_stages(pipeline, float(v) * pipeline.effect.velocity_mps / 3.8)
+            if i >= 5:  # the first five are warm-up
+                times[label].append(stages)
+    rows, base = [], None
+    for label, samples in times.items():
+        pipeline = pipelines[label]
+        spec = pipeline.actuator.spec
+        cols = [Timing(tuple(s[k] for s in samples)) for k in range(4)]
+        base = base or cols[3].median
+        rows.append([label, f"{pipeline.plan.effect.actuator.type} {spec.rate_hz:g} Hz"]
+                    + [f"{ms(c.median)} / {ms(c.p99)}" for c in cols] + [f"{cols[3].median / base:.2f}"])
+    typer.echo(f"render latency per impact, {repeat} renders per effect, interleaved; velocities uniform over "
+               "[0.64, 1.37] x each effect's own (a new one each render); median / p99 in ms")
+    typer.echo(table(["effect", "actuator", *STAGES, "x first"], rows))
 
 
 def register(bench: typer.Typer) -> None:
