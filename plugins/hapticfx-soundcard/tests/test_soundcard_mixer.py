@@ -69,7 +69,7 @@ def test_the_queue_is_bounded_before_rendering_too():
     mixer.set_limits(0, LOOSE)
     for i in range(1000):  # no block rendered meanwhile (a stalled device)
         mixer.add(0, np.full(100, 1e-4 * i))
-    assert len(mixer._incoming) == 8 and mixer.stolen == 992
+    assert mixer.voices == 8 and mixer.stolen == 992
     out = render(mixer, 64, 64)
     np.testing.assert_allclose(out[:, 0], 1e-4 * sum(range(992, 1000)), rtol=1e-5)
 
@@ -89,3 +89,17 @@ def test_channel_without_limits_is_refused():
     mixer = Mixer(2, RATE)
     with pytest.raises(SignalError, match="no safety limits"):
         mixer.add(1, np.ones(10))
+
+
+def test_a_block_costs_the_same_however_many_voices_sound():
+    """1,000 overlapping impacts: the block is their sum (the ring), not a loop over them."""
+    mixer = Mixer(1, RATE, max_voices=1000)
+    mixer.set_limits(0, LOOSE)
+    rng = np.random.default_rng(0)
+    voices = rng.uniform(-1e-4, 1e-4, (1000, 4800))
+    for v in voices:
+        mixer.add(0, v)
+    assert mixer.voices == 1000 and mixer.stolen == 0
+    out = render(mixer, 4800, 48)
+    np.testing.assert_allclose(out[:, 0], voices.sum(axis=0), atol=1e-6)  # float32 output
+    assert not mixer.busy
