@@ -37,6 +37,24 @@ def test_velocity_zero_is_silence_and_harder_hits_are_stronger():
     assert peaks[0] < peaks[1] < peaks[2]
 
 
+def test_vanishing_speed_fades_to_silence_without_a_thump():
+    # The object's weight is not part of the collision: a touch at 1e-9 m/s is (nearly) nothing.
+    model = build({"mass_kg": 10.0, "stiffness": 1e10})
+    peaks = [model.render(Impact("wood-beam", v)).peak for v in (1e-9, 1e-6, 1e-3, 0.1)]
+    assert peaks[0] < 1e-6
+    assert all(a < b for a, b in zip(peaks, peaks[1:]))
+
+
+def test_the_grid_sampler_matches_a_tight_float64_reference():
+    model = build({"stiffness": 1e8})
+    scene, rate, n_fine, lead = model.scene(PAPER_OBJECTS["wood-beam"], 3.0)
+    n = n_fine - lead
+    got = scene.sample(n, rate)
+    ref = scene.integrate((n - 1) / rate, method="DOP853", rtol=1e-11).sol(np.arange(n) / rate)
+    a, b = scene.helmet.sensor_acceleration(got, rate), scene.helmet.sensor_acceleration(ref, rate)
+    assert np.max(np.abs(a - b)) < 1e-3 * np.max(np.abs(b))
+
+
 def test_material_and_stiffness_change_the_sound_of_it():
     soft = build({"stiffness": 1e4}).render(Impact("wood-beam", 3.0)).samples
     stiff = build({"stiffness": 1e9}).render(Impact("wood-beam", 3.0)).samples

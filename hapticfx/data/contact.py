@@ -102,7 +102,9 @@ class DropScene:
 
     ``tilt`` (rad) is the block's angle at release, ``offset`` (m) its lateral
     distance from the crown, ``spin`` (rad/s) its angular rate at contact,
-    ``gap`` (m) its clearance above the dome at release (negative: pressed in).
+    ``gap`` (m) its clearance above the dome at release (negative: pressed in),
+    ``gravity`` (m/s^2) the acceleration of gravity on the block (the helmet
+    always rests on its support under its own weight).
     """
 
     block: Block
@@ -114,6 +116,7 @@ class DropScene:
     offset: float = 0.0
     spin: float = 0.0
     gap: float = 2e-4
+    gravity: float = G
 
     def __post_init__(self):
         valid_number(self.block.mass, name="mass_kg", minimum=1e-6, maximum=1e4)
@@ -201,7 +204,7 @@ class DropScene:
             support = self._support_k * comp * math.sqrt(comp) * (1.0 - h.support_damping * vh)
             support = support if support > 0.0 else 0.0
         out = [
-            vx, vy, om, fx / m, fy / m - G, ((px - x) * fy - (py - y) * fx) / inertia,
+            vx, vy, om, fx / m, fy / m - self.gravity, ((px - x) * fy - (py - y) * fx) / inertia,
             vh, (support - fy) / h.mass - G,
             vb, (-self._rocking_k * be - self._rocking_c * vb + torque) / self._rocking_inertia,
             -fy, torque,
@@ -241,19 +244,42 @@ class DropScene:
             jac[:, i] = (self.rhs(t, shifted) - f0) / steps[i]
         return jac
 
-    def integrate(self, duration: float, *, method: str = "LSODA", rtol: float = 1e-7, dense: bool = True):
-        """Integrate from release for ``duration`` s; returns scipy's ``OdeResult``."""
-        from scipy.integrate import solve_ivp
-
-        s0 = self.initial_state()
+    def _tolerances(self, duration: float, rtol: float) -> tuple[np.ndarray, float]:
+        """Absolute tolerances and the largest step for a run of ``duration`` s."""
         # atol below rtol * scale: accuracy is relative for large states and absolute near zero
         atol = rtol * 1e-2 * self.scales()
         # Free fall is a polynomial the error estimators see as exact, so without a bound a solver
         # can step clean through the helmet; no step may move the block by more than half the dome radius.
-        max_step = min(duration, 0.5 * self.helmet.dome_radius / (self.velocity + G * duration))
+        speed = self.velocity + self.gravity * duration
+        max_step = min(duration, 0.5 * self.helmet.dome_radius / speed) if speed > 0 else duration
+        return atol, max_step
+
+    def integrate(self, duration: float, *, method: str = "LSODA", rtol: float = 1e-7, dense: bool = True):
+        """Integrate from release for ``duration`` s; returns scipy's ``OdeResult``."""
+        from scipy.integrate import solve_ivp
+
+        atol, max_step = self._tolerances(duration, rtol)
         implicit = {"jac": self.jac} if method in ("Radau", "BDF", "LSODA") else {}
-        sol = solve_ivp(self.rhs, (0.0, duration), s0, method=method, rtol=rtol, atol=atol,
+        sol = solve_ivp(self.rhs, (0.0, duration), self.initial_state(), method=method, rtol=rtol, atol=atol,
                         dense_output=dense, max_step=max_step, **implicit)
         if not sol.success:
             raise SignalError(f"contact integration failed ({method}): {sol.message}")
         return sol
+
+    def sample(self, n: int, rate_hz: float, *, rtol: float = 1e-7) -> np.ndarray:
+        """The state ``(n_state, n)`` at ``n`` instants ``rate_hz`` apart from the release.
+
+        The same LSODA as :meth:`integrate`, through ``scipy.integrate.odeint``,
+        which interpolates onto the grid in compiled code: about three times
+        faster than a dense ``solve_ivp`` solution evaluated on a fine grid.
+        """
+        from scipy.integrate import odeint
+
+        t = np.arange(n) / float(rate_hz)
+        duration = max(float(t[-1]), 1.0 / float(rate_hz))
+        atol, max_step = self._tolerances(duration, rtol)
+        states, info = odeint(self.rhs, self.initial_state(), t, Dfun=self.jac, tfirst=True, rtol=rtol,
+                              atol=atol, hmax=max_step, mxstep=200_000, full_output=True)
+        if info["message"] != "Integration successful.":
+            raise SignalError(f"contact integration failed (LSODA): {info['message']}")
+        return states.T

@@ -16,16 +16,27 @@ from ..params import BuildContext, doc
 from ..signal import Signal
 
 
-class ContactModel(Model):
-    """The drop-rig physics (:mod:`hapticfx.data.synth`) rendered as one impact profile in g.
+FINE_RATE_HZ = 20000.0  # the contact and the helmet's modes are resolved on this grid, then averaged
 
-    The object falls on the helmet at the impact's velocity; the Hunt-Crossley
-    contact (rebounds included) drives the helmet's bounce, rocking and shell
-    modes; the 3-axis acceleration at the sensor position (no gravity, no
-    sensor noise or clipping) is reduced to 1D with ``reducer`` and sampled at
-    ``rate_hz`` by averaging over each sample interval. The profile starts
-    ``pre_ms`` before the first contact. Velocity 0 is silence. Material,
+
+class ContactModel(Model):
+    """The drop-rig physics (:mod:`hapticfx.data.contact`) rendered as one impact profile in g.
+
+    The object meets the helmet at the impact's velocity; the Hunt-Crossley
+    contact (every contact until they part for good) drives the helmet's
+    bounce, rocking and shell modes; the 3-axis acceleration at the sensor
+    position (no gravity, no sensor noise or clipping) is reduced to 1D with
+    ``reducer`` and sampled at ``rate_hz`` by averaging over each sample
+    interval. The profile starts ``pre_ms`` before the contact. Material,
     stiffness and damping default to the effect object's material.
+
+    What is rendered is the collision: the object is not weighed down by
+    gravity (the helmet still rests on its support). Its weight would add a
+    static load, which no actuator here can render, and would turn a slow
+    touch into a thump; without it the response fades to silence as the
+    velocity goes to 0, and a hit along any direction (a bat, a kick) is
+    rendered the same way as a fall. The recorded drops of the built-in
+    dataset (:mod:`hapticfx.data.synth`) do include gravity.
     """
 
     name = "contact"
@@ -50,6 +61,9 @@ class ContactModel(Model):
         rate_hz: float = field(default=1000.0, metadata=doc("sample rate of the profile (Hz)", min=100.0, max=96000.0))
 
     def __init__(self, params: Params, context: BuildContext):
+        import scipy.integrate  # noqa: F401 -- loaded when the effect is built, not on its first impact (~1 s)
+        import scipy.signal  # noqa: F401
+
         from ..data.contact import MATERIALS
         from ..registry import get_registry
 
@@ -78,29 +92,40 @@ class ContactModel(Model):
         return replace(info, mass_kg=p.mass_kg if p.mass_kg is not None else info.mass_kg,
                        material=p.material or info.material)
 
-    def _profile(self, info: ObjectInfo, velocity: float) -> np.ndarray:
+    def scene(self, info: ObjectInfo, velocity: float):
+        """The contact scene of one impact and its grid: ``(scene, fine_rate_hz, n_fine, lead)``.
+
+        The scene's state is sampled ``n_fine - lead`` times at ``fine_rate_hz``
+        from the first contact; ``lead`` fine samples of silence come before it.
+        """
         from ..data.contact import material
         from ..data.helmet import Helmet
+        from ..data.synth import Drop, scene_for
+
+        p = self.params
+        n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
+        over = max(1, math.ceil(FINE_RATE_HZ / p.rate_hz))
+        fine_rate = p.rate_hz * over
+        mat = material(info.material)
+        drop = Drop(velocity, tilt=math.radians(p.tilt_deg), offset=p.offset_mm * 1e-3,
+                    stiffness=p.stiffness if p.stiffness is not None else mat.stiffness,
+                    damping=p.damping if p.damping is not None else mat.damping)
+        scene = replace(scene_for(info, drop, Helmet(mass=p.helmet_mass_kg)), gap=0.0, gravity=0.0)
+        return scene, fine_rate, n * over, min(n * over, int(round(p.pre_ms / 1000.0 * fine_rate)))
+
+    def _profile(self, info: ObjectInfo, velocity: float) -> np.ndarray:
         from ..data.hertz import G
-        from ..data.synth import Drop, Rig, simulate_drop
 
         p = self.params
         n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
         if velocity == 0.0:
             return np.zeros(n)
-        over = max(1, math.ceil(20000.0 / p.rate_hz))
-        rig = Rig(helmet=Helmet(mass=p.helmet_mass_kg), fine_rate_hz=p.rate_hz * over)
-        mat = material(info.material)
-        drop = Drop(velocity, tilt=math.radians(p.tilt_deg), offset=p.offset_mm * 1e-3,
-                    stiffness=p.stiffness if p.stiffness is not None else mat.stiffness,
-                    damping=p.damping if p.damping is not None else mat.damping)
-        gap = 2e-4  # release height above the helmet (DropScene.gap): free fall to the first contact
-        onset = (math.sqrt(velocity * velocity + 2 * G * gap) - velocity) / G
-        lead = int(round((p.pre_ms / 1000.0 - onset) * rig.fine_rate_hz))  # > 0: silence to prepend
-        total = n * over
-        acc = simulate_drop(info, drop, rig=rig, duration_s=(total - lead + over) / rig.fine_rate_hz)
-        acc = np.concatenate([np.zeros((lead, 3)), acc]) if lead > 0 else acc[-lead:]
-        block = acc[:total].reshape(n, over, 3).mean(axis=1)
+        scene, fine_rate, n_fine, lead = self.scene(info, velocity)
+        acc = np.zeros((n_fine, 3))
+        if lead < n_fine:
+            states = scene.sample(n_fine - lead, fine_rate)
+            acc[lead:] = scene.helmet.sensor_acceleration(states, fine_rate)
+        block = acc.reshape(n, n_fine // n, 3).mean(axis=1)
         return self.reducer.reduce(block / G)
 
     def render(self, impact: Impact) -> Signal:
