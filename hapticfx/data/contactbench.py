@@ -1,4 +1,10 @@
-"""Work-precision benchmark of the contact integration (``hapticfx bench contact``).
+"""Benchmarks of the contact physics (``hapticfx bench contact``).
+
+:func:`renders` times the ``contact`` model as effects use it, over stiffness,
+mass and velocity, against its budget; :func:`run` is the work-precision table
+of the integration itself.
+
+Work precision:
 
 Each case is one drop of the drop-rig simulator (:class:`~hapticfx.data.contact.DropScene`,
 the wood beam on the helmet) integrated over the recording window by every
@@ -147,3 +153,75 @@ def table(rows: list[dict]) -> str:
         lines.append(f"- {name}: {pos:.2g} um height, {imp:.2g} impulse; block in contact {frac:.0%} of the window")
     return "\n".join(lines)
 
+
+
+RENDER_STIFFNESS = (1e3, 1e6, 1e8, 1e10)
+RENDER_MASSES = (1e-3, 0.1, 1.0, 10.0)
+RENDER_VELOCITIES = (1e-6, 0.01, 0.5, 5.0, 50.0)
+RENDER_BUDGET_MS = 50.0
+
+
+def renders(*, stiffness=RENDER_STIFFNESS, masses=RENDER_MASSES, velocities=RENDER_VELOCITIES,
+            repeats: int = 3, progress: Callable[[str], None] | None = None) -> list[dict]:
+    """Time ``ContactModel`` renders (500 ms at 1 kHz, the defaults) over the grid; one row per stiffness.
+
+    Each render is of a velocity the model has not cached. Beside it, in the same
+    run, the integration alone two ways on the model's own grid: ``DropScene.sample``
+    (what the model uses) and scipy's ``solve_ivp`` dense solution evaluated on the
+    grid (the baseline), with the largest difference of the helmet's acceleration they
+    give, relative to its peak (velocities from 0.01 m/s).
+    """
+    from ..interfaces import Impact
+    from ..models.contact import ContactModel
+    from ..objects import ObjectInfo
+    from ..params import BuildContext
+
+    say = progress or (lambda message: None)
+    rows = []
+    for k in stiffness:
+        walls, sample_walls, dense_walls, diffs, peaks = [], [], [], [], []
+        for mass in masses:
+            info = ObjectInfo("block", "block", mass, (60.0, 60.0, 30.0), "wood")
+            model = ContactModel(ContactModel.Params(stiffness=k), BuildContext(object_info=info))
+            for i, v in enumerate(velocities):
+                for r in range(repeats):
+                    fresh = v * (1.0 + 1e-9 * (r + 1))  # a velocity the model has not rendered
+                    t0 = time.perf_counter()
+                    out = model.render(Impact("block", fresh))
+                    walls.append(time.perf_counter() - t0)
+                peaks.append(out.peak)
+                scene, rate, n_fine, lead = model.scene(info, v)
+                t0 = time.perf_counter()
+                fast = scene.sample(n_fine - lead, rate)
+                sample_walls.append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                dense = scene.integrate((n_fine - lead - 1) / rate).sol(np.arange(n_fine - lead) / rate)
+                dense_walls.append(time.perf_counter() - t0)
+                if v >= 0.01:  # below, the response is under 1e-6 g and the tolerances are absolute
+                    a = scene.helmet.sensor_acceleration(fast, rate)
+                    b = scene.helmet.sensor_acceleration(dense, rate)
+                    diffs.append(float(np.max(np.abs(a - b)) / np.max(np.abs(b))))
+            say(f"k={k:.0e} mass {mass:g} kg: slowest render so far {max(walls) * 1e3:.1f} ms")
+        w = np.array(walls) * 1e3
+        rows.append({
+            "stiffness": k, "renders": int(w.size), "median_ms": float(np.median(w)),
+            "p99_ms": float(np.percentile(w, 99)), "max_ms": float(w.max()),
+            "sample_ms": float(np.median(sample_walls) * 1e3), "dense_ms": float(np.median(dense_walls) * 1e3),
+            "max_state_diff": max(diffs), "peak_g": (min(peaks), max(peaks)),
+        })
+    return rows
+
+
+def render_table(rows: list[dict]) -> str:
+    """The render rows as a Markdown table."""
+    lines = ["| k (N/m^1.5) | renders | median ms | p99 ms | max ms | within budget | integration ms: "
+             "sample (odeint) | solve_ivp dense (baseline) | x baseline | largest acceleration difference | peak g (min-max) |",
+             "|" + "---|" * 11]
+    for r in rows:
+        ok = "yes" if r["max_ms"] <= RENDER_BUDGET_MS else "NO"
+        lines.append(
+            f"| {r['stiffness']:.0e} | {r['renders']} | {r['median_ms']:.1f} | {r['p99_ms']:.1f} | {r['max_ms']:.1f} "
+            f"| {ok} | {r['sample_ms']:.1f} | {r['dense_ms']:.1f} | {r['sample_ms'] / r['dense_ms']:.2f} "
+            f"| {r['max_state_diff']:.1e} | {r['peak_g'][0]:.2g}-{r['peak_g'][1]:.3g} |"
+        )
+    return "\n".join(lines)

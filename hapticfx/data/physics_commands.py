@@ -80,26 +80,33 @@ def synth(
 
 def bench_contact(
     repeats: int = typer.Option(3, "--repeats", min=1, max=100, help="Timed runs per solver and tolerance."),
-    solvers: str = typer.Option("RK45,DOP853,Radau,BDF,LSODA", "--solvers", help="scipy solve_ivp methods."),
+    solvers: str = typer.Option("RK45,DOP853,Radau,BDF,LSODA", "--solvers",
+                                help="scipy solve_ivp methods for the work-precision table; 'none' skips it."),
     rtols: str = typer.Option("1e-4,1e-6,1e-8", "--rtols", help="Relative tolerances."),
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="Also write the rows as JSON here."),
 ):
-    """Work-precision table of the contact integration, soft (k=1e5) to very stiff (k=1e10) and sustained."""
+    """Contact physics: the contact model's render time over stiffness, mass and velocity against its
+    50 ms budget, then a work-precision table of the integration (soft k=1e5 to very stiff k=1e10)."""
     from . import contactbench
 
-    names = [s.strip() for s in solvers.split(",") if s.strip()]
+    names = [] if solvers.strip() == "none" else [s.strip() for s in solvers.split(",") if s.strip()]
     known = {"RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"}
     bad = [n for n in names if n not in known]
     if bad:
-        raise SignalError(f"--solvers: unknown solver {bad[0]!r}; known: {', '.join(sorted(known))}")
+        raise SignalError(f"--solvers: unknown solver {bad[0]!r}; known: {', '.join(sorted(known))}, or none")
     tols = _floats(rtols, option="--rtols")
     if any(not 1e-13 <= t <= 1e-1 for t in tols):
         raise SignalError(f"--rtols must lie in [1e-13, 0.1], got {tols}")
-    rows = contactbench.run(solvers=names, rtols=tols, repeats=repeats, progress=_say)
-    typer.echo(contactbench.table(rows))
+    render_rows = contactbench.renders(repeats=repeats, progress=_say)
+    typer.echo(f"## contact model renders (budget {contactbench.RENDER_BUDGET_MS:g} ms each)\n")
+    typer.echo(contactbench.render_table(render_rows))
+    rows = contactbench.run(solvers=names, rtols=tols, repeats=repeats, progress=_say) if names else []
+    if rows:
+        typer.echo("\n## work precision of the integration\n")
+        typer.echo(contactbench.table(rows))
     if out is not None:
         tmp = out.with_name(f".{out.name}.tmp")
-        tmp.write_text(json.dumps(rows, indent=2) + "\n")
+        tmp.write_text(json.dumps({"renders": render_rows, "solvers": rows}, indent=2) + "\n")
         tmp.replace(out)
         typer.echo(f"wrote {out}")
 
