@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.signal as ss
@@ -81,3 +83,17 @@ def test_wav_writer_reads_back_within_one_step(tmp_path, fmt, step):
     if fmt != "float32":  # the standard library's reader takes every PCM file hapticfx writes
         with wave.open(str(tmp_path / "a.wav")) as w:
             assert (w.getnchannels(), w.getframerate(), w.getnframes()) == (2, 48000, 1000)
+
+ROOT = Path(__file__).resolve().parents[1]
+SHIPPED = sorted(p for pattern in ("effects/*.yaml", "effects/families/*.yaml", "plugins/*/effects/*.yaml")
+                 for p in ROOT.glob(pattern))
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
+def test_every_shipped_effect_starts_and_ends_at_zero(path):
+    from hapticfx.pipeline import Pipeline
+
+    pipeline = Pipeline.from_effect(path, device="memory")
+    for v in (0.5, pipeline.effect.velocity_mps or 3.0, 5.0):
+        out = pipeline.render(velocity=v).output.samples
+        assert abs(out[0]) < 1e-3 and abs(out[-1]) < 1e-3, (v, out[0], out[-1])

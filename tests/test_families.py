@@ -51,3 +51,13 @@ def test_default_velocity_is_felt_and_not_clipped(path):
     d = pipeline.render()
     assert 0.05 < d.output.peak < pipeline.limits.peak
     assert d.limiter.total == 0
+
+
+@pytest.mark.parametrize("path", FAMILIES, ids=lambda p: p.stem)
+def test_the_profile_has_died_away_before_it_ends(path):
+    """No family is cut off mid-bounce: the last 5% of the profile is quiet at and above its default speed."""
+    pipeline = Pipeline.from_effect(path, device="memory")
+    v0 = pipeline.effect.velocity_mps
+    for v in (v0, min(3.0 * v0, MAX_VELOCITY_MPS)):
+        p = pipeline.render(velocity=v).profile.samples
+        assert np.abs(p[-len(p) // 20:]).max() < 0.02 * np.abs(p).max(), v
