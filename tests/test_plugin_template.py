@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hapticfx.shaping import FADE_IN_S
+
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "hapticfx-example-actuator"
 
@@ -101,7 +103,8 @@ def test_plays_an_effect_through_it(venv, tmp_path):
         print(row["peak"], row["above_half_s"], row["n_samples"])
     """)
     peak, above, n = run(python, "-c", check, env=clean_env()).stdout.split()
-    assert float(above) == pytest.approx(0.030) and int(n) > 0 and float(peak) > 0
+    # the 30 ms pulse, less the first half of shaping's 2 ms fade-in (below half scale)
+    assert float(above) == pytest.approx(0.030 - FADE_IN_S / 2) and int(n) > 0 and float(peak) > 0
 
 
 
