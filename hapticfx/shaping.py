@@ -4,7 +4,9 @@ Gain and scale to the actuator's normalised range; the actuator's band, applied
 at the profile's own rate with a causal Butterworth (a profile at 1 kHz holds
 nothing above 500 Hz, so that is where the work is small); short raised-cosine
 fades, so every output starts and ends at zero (no click at onset, none where a
-profile stops); then polyphase resampling to the actuator's rate. The safety
+profile stops); then polyphase resampling to the actuator's rate. An actuator
+that plays pulses, not waveforms (``spec.waveform`` false, a solenoid), gets the
+profile unfiltered and unfaded: it reads the width of its envelope. The safety
 limiter comes after this, always.
 """
 
@@ -47,7 +49,7 @@ def shape(profile: Signal, spec: ActuatorSpec, *, gain: float, scale: float) -> 
     ``1 / full_scale_g``); ``gain`` is the effect's gain.
     """
     out = profile.with_samples(profile.samples * (gain * scale))
-    if spec.waveform:
+    if spec.waveform:  # a pulse actuator (a solenoid) reads the envelope's width: no band, no fades
         out = band_limit(out, spec.band_hz)
-    out = out.with_samples(taper(out.samples, out.rate_hz, fade_in_s=FADE_IN_S, fade_out_s=FADE_OUT_S))
+        out = out.with_samples(taper(out.samples, out.rate_hz, fade_in_s=FADE_IN_S, fade_out_s=FADE_OUT_S))
     return resample(out, spec.rate_hz)

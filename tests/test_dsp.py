@@ -59,8 +59,14 @@ def test_shaping_is_finite_and_linear_at_extreme_levels(value):
     assert np.allclose(out.samples, unit.samples * value, rtol=1e-9, atol=1e-12 * value * np.abs(unit.samples).max())
 
 
-@pytest.mark.parametrize("spec", [VIBRO, ActuatorSpec(48000.0, 5.0, (30.0, 800.0)),
-                                  ActuatorSpec(1000.0, 12.0, (0.0, 500.0), waveform=False)])
+def test_a_pulse_actuator_gets_the_profile_without_band_limit_or_fades():
+    pulse = np.zeros(500)
+    pulse[:30] = 0.7
+    out = shape(Signal(pulse, 1000.0), ActuatorSpec(1000.0, 12.0, (0.0, 500.0), waveform=False), gain=1.0, scale=1.0)
+    assert np.array_equal(out.samples, pulse)  # a solenoid reads the 30 ms width
+
+
+@pytest.mark.parametrize("spec", [VIBRO, ActuatorSpec(48000.0, 5.0, (30.0, 800.0))])
 def test_shaped_output_starts_and_ends_at_zero(spec):
     """A square pulse from the first sample (the kinetic-energy model) and a profile cut off mid-vibration."""
     square = np.zeros(500)

@@ -119,7 +119,7 @@ def test_cli_log_matches_a_render(venv, tmp_path):
     second, = read_rows(tmp_path / "second.csv")
     assert first["samples"] == second["samples"]
     samples = np.array(first["samples"].split(), dtype=float)
-    assert float(first["above_half_s"]) == pytest.approx(0.020)
+    assert float(first["above_half_s"]) == pytest.approx(0.020 - FADE_IN_S / 2)  # as above
     assert float(first["peak"]) == np.abs(samples).max() > 0
     assert not list(tmp_path.glob(".*.part"))  # no temporary file left behind
 
