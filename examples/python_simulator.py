@@ -71,7 +71,7 @@ def main() -> None:
         impacts = simulate(lambda o, v, t: engine.impact(o, v, at=t), realtime=args.realtime)
     stats = engine.stats()
     for p in engine.played():
-        print(f"t={p.at:.3f} s  {p.object:15s} {p.delivery.impact.velocity:.2f} m/s  peak {p.output.peak:.3f} "
+        print(f"t={p.at:.3f} s  {p.object:15s} {p.velocity:.2f} m/s  peak {p.peak:.3f} "
               f"of full scale  ({p.latency_s * 1e3:.1f} ms from impact() to the actuator)")
     print(f"{len(impacts)} impacts: {stats['rendered']} rendered, {stats['failed']} failed, "
           f"{stats['dropped_queue_full']} dropped; free-fall check: "

@@ -1,13 +1,18 @@
 """`hapticfx.Engine`: render a scene's impacts off the simulator's thread.
 
-``impact()`` validates its arguments, puts the impact on a bounded queue and
-returns at once; one worker thread renders (model, shaping, safety limiter)
-and plays. A full queue drops the impact and counts it (the caller never
-blocks); an impact that fails while rendering is counted and logged and the
-worker goes on with the next one.
+``impact()`` validates its arguments, puts the impact on its output's bounded
+queue and returns at once. Every output (one opened actuator) has its own
+queue and worker thread, which renders (model, shaping, safety limiter) and
+plays, so a slow or silent device never delays another. A full queue drops
+the impact and counts it (the caller never blocks); an impact that fails is
+counted by reason, logged at a limited rate, and the worker goes on.
+
+Memory stays bounded on a long run: the engine keeps a summary of each of the
+last ``keep_last`` impacts (:class:`Played`, no samples); the samples go to
+the ``on_played`` callback (:class:`Playback`) and are not kept.
 
 Time: ``at`` (the simulation time of the collision) is recorded with each
-delivery and not used for scheduling: an impact plays as soon as the worker
+impact and not used for scheduling: an impact plays as soon as its worker
 reaches it. The safety limiters run on the engine's own monotonic clock, so a
 sender cannot space out its timestamps to defeat a duty-cycle limit.
 """
@@ -25,10 +30,11 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import EffectError, HapticfxError, one_line
+from .errors import DeviceError, EffectError, HapticfxError, one_line
 from .interfaces import Actuator, Impact
 from .osc import ImpactMessage
 from .pipeline import Delivery, Pipeline
+from .ratelog import RateLimitedLog
 from .registry import Registry
 from .safety import SafetyLimiter
 from .scene import Scene, load_scene, stand_in_for
@@ -36,17 +42,26 @@ from .signal import Signal, valid_number, valid_velocity
 
 log = logging.getLogger(__name__)
 
-_STOP = object()
+COUNTS = ("submitted", "queued", "dropped_queue_full", "rendered", "failed", "cancelled", "callback_errors")
+LATENCIES_KEPT = 10_000  # per output, for the latency figures in stats()
 
 
 @dataclass(frozen=True)
 class Played:
-    """One impact the engine played: what was sent, and when (``time.perf_counter`` seconds)."""
+    """One impact the engine played, as its history keeps it: what, when, how strong; no samples.
+
+    Times are ``time.perf_counter`` seconds: ``received`` (submission or datagram
+    arrival), ``started`` (its worker began rendering), ``played`` (the actuator
+    took the samples).
+    """
 
     object: str
     at: float | None
-    delivery: Delivery
-    output: Signal
+    velocity: float
+    output: str
+    peak: float
+    duration_s: float
+    limited: bool
     received: float
     started: float
     played: float
@@ -55,6 +70,18 @@ class Played:
     def latency_s(self) -> float:
         """From submission (or datagram arrival) to the actuator holding the samples."""
         return self.played - self.received
+
+
+@dataclass(frozen=True)
+class Playback(Played):
+    """What the ``on_played`` callback receives: the summary plus the rendered signals."""
+
+    delivery: Delivery | None = None
+    signal: Signal | None = None
+
+    def summary(self) -> Played:
+        return Played(self.object, self.at, self.velocity, self.output, self.peak, self.duration_s, self.limited,
+                      self.received, self.started, self.played)
 
 
 @dataclass
@@ -67,30 +94,42 @@ class _Job:
 
 
 class _Output:
-    """One opened actuator and the pipelines that play on it.
+    """One opened actuator: its queue, its worker, and (when effects share it) a limiter on their sum."""
 
-    When several effects share the actuator, a limiter with the actuator's
-    limits also runs on what they send together: each effect's own limiter
-    only sees its own impacts.
-    """
-
-    def __init__(self, name: str, actuator: Actuator, shared: bool, limits):
+    def __init__(self, name: str, actuator: Actuator, shared: bool, limits, queue_size: int):
         self.name = name
         self.actuator = actuator
         self.limiter = SafetyLimiter(limits, actuator.spec.rate_hz) if shared else None
+        self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
+        self.stop = threading.Event()
+        self.counts = dict.fromkeys(("queued", "dropped_queue_full", "rendered", "failed", "cancelled"), 0)
+        self.errors: dict[str, int] = {}
+        self.latencies: deque[float] = deque(maxlen=LATENCIES_KEPT)
+        self.failing: str | None = None  # the device error of its last impact, until one plays again
+        self.worker: threading.Thread | None = None
+
+
+def _latency_summary(values) -> dict | None:
+    lat = np.fromiter(values, dtype=float)
+    if not lat.size:
+        return None
+    return {"n": int(lat.size), "median": float(np.median(lat) * 1e3), "p99": float(np.percentile(lat, 99) * 1e3),
+            "max": float(lat.max() * 1e3)}
 
 
 class Engine:
-    """Renders impacts of a scene on a worker thread; thread-safe; use as a context manager.
+    """Renders impacts of a scene on one worker thread per output; thread-safe; use as a context manager.
 
     ``Engine("scenes/earthquake_room.yaml")`` builds every effect of the scene
     (only what they reference) and opens the actuators. ``device`` replaces
     every actuator, as ``--device`` does (``memory``, ``wav:PATH``).
-    ``on_played(Played)`` is called on the worker thread after each impact.
+    ``on_played(Playback)`` is called on the output's worker after each impact.
+    ``queue_size`` (default: the scene's ``engine.queue_size``) bounds each
+    output's queue.
     """
 
     def __init__(self, scene: Scene | str | Path, *, device: str | int | None = None,
-                 queue_size: int | None = None, on_played: Callable[[Played], None] | None = None,
+                 queue_size: int | None = None, on_played: Callable[[Playback], None] | None = None,
                  keep_last: int = 10_000, registry: Registry | None = None):
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
         size = self.scene.engine.queue_size if queue_size is None else int(valid_number(queue_size, name="queue_size", minimum=1))
@@ -99,23 +138,23 @@ class Engine:
         self._pipelines: dict[str, Pipeline] = {}
         self._outputs: dict[str, _Output] = {}
         self._route: dict[str, _Output] = {}
-        self._build(device, registry)
-        self._queue: queue.Queue = queue.Queue(maxsize=size)
+        self._build(device, registry, size)
         self._lock = threading.Lock()
-        self._counts = dict.fromkeys(
-            ("submitted", "queued", "dropped_queue_full", "rendered", "failed", "cancelled", "callback_errors"), 0
-        )
+        self._counts = dict.fromkeys(COUNTS, 0)
         self._errors: dict[str, int] = {}
         self._close_errors: dict[str, str] = {}
-        self._last: deque[Played] = deque(maxlen=keep_last)
+        self._last: deque[Played] = deque(maxlen=int(valid_number(keep_last, name="keep_last", minimum=0)))
+        self._log = RateLimitedLog(log)
         self._closed = False
+        self._t0 = time.monotonic()
         self._open_outputs()
-        self._worker = threading.Thread(target=self._run, name="hapticfx-engine", daemon=True)
-        self._worker.start()
+        for out in self._outputs.values():
+            out.worker = threading.Thread(target=self._run, args=(out,), name=f"hapticfx-engine:{out.name}", daemon=True)
+            out.worker.start()
 
     # --- building ---------------------------------------------------------------
 
-    def _build(self, device, registry) -> None:
+    def _build(self, device, registry, queue_size: int) -> None:
         groups: dict[str, list[str]] = {}
         for oid, entry in self.scene.entries.items():
             groups.setdefault(entry.output, []).append(oid)
@@ -126,7 +165,7 @@ class Engine:
                 pipeline = Pipeline(self.scene.entries[oid].effect, device=dev, registry=registry)
                 self._pipelines[oid] = pipeline
                 first = first or pipeline
-            self._outputs[output] = _Output(output, first.actuator, len(oids) > 1, first.limits)
+            self._outputs[output] = _Output(output, first.actuator, len(oids) > 1, first.limits, queue_size)
             for oid in oids:
                 self._route[oid] = self._outputs[output]
 
@@ -149,7 +188,7 @@ class Engine:
         return list(self._pipelines)
 
     def impact(self, object: str, velocity: float, at: float | None = None, *, channel: int | None = None) -> bool:
-        """Queue one impact and return at once: True if queued, False if dropped (queue full).
+        """Queue one impact and return at once: True if queued, False if dropped (its output's queue is full).
 
         Raises :class:`~hapticfx.errors.HapticfxError` for an unknown object,
         a bad velocity, time or channel, or a closed engine.
@@ -168,40 +207,50 @@ class Engine:
         if at is not None:
             at = valid_number(at, name="at")
         wired = route.effect.actuator.channel
-        if channel is not None and channel != wired:
+        if channel is not None and channel != (wired or 0):  # no channel in the scene: the actuator's first, 0
             raise EffectError(
-                f"object {object!r} plays on channel {wired if wired is not None else 'default'}, not {channel}",
+                f"object {object!r} plays on channel {wired or 0}, not {channel}",
                 source=self.scene.source, key=f"effects.{object}.channel",
             )
+        out = self._route[object]
         job = _Job(object, velocity, at, channel, received)
         with self._lock:
-            if self._closed:  # checked under the lock: nothing is queued behind close()'s stop marker
+            if self._closed:  # checked under the lock: nothing is queued once close() began
                 raise HapticfxError("the engine is closed")
             self._counts["submitted"] += 1
             try:
-                self._queue.put_nowait(job)
+                out.queue.put_nowait(job)
             except queue.Full:
                 self._counts["dropped_queue_full"] += 1
-                return False
-            self._counts["queued"] += 1
-        return True
+                out.counts["dropped_queue_full"] += 1
+                queued = False
+            else:
+                self._counts["queued"] += 1
+                out.counts["queued"] += 1
+                queued = True
+        if not queued:
+            self._log.event(("queue_full", out.name), f"{out.name}: queue full ({out.queue.maxsize}), impact of "
+                                                      f"{object} dropped")
+        return queued
 
-    # --- the worker ---------------------------------------------------------------
+    # --- the workers ------------------------------------------------------------
 
-    def _run(self) -> None:
-        t0 = time.monotonic()
+    def _run(self, out: _Output) -> None:
         while True:
-            job = self._queue.get()
-            if job is _STOP:
-                return
             try:
-                played = self._play(job, time.monotonic() - t0)
+                job = out.queue.get(timeout=0.05)
+            except queue.Empty:
+                if out.stop.is_set():
+                    return
+                continue
+            try:
+                playback = self._play(out, job, time.monotonic() - self._t0)
             except Exception as exc:  # one bad event must never stop the engine
-                self._failed(job, exc)
+                self._failed(out, job, exc)
                 continue
             if self.on_played is not None:
                 try:
-                    self.on_played(played)
+                    self.on_played(playback)
                 except Exception:  # the caller's callback: counted apart, the impact was played
                     with self._lock:
                         self._counts["callback_errors"] += 1
@@ -209,62 +258,92 @@ class Engine:
                     if first:
                         log.exception("on_played raised (further errors are counted, not logged)")
 
-    def _play(self, job: _Job, now: float) -> Played:
+    def _play(self, out: _Output, job: _Job, now: float) -> Playback:
         """Render one impact (its limiter on the engine's clock ``now``) and play it."""
         started = time.perf_counter()
-        pipeline, out = self._pipelines[job.object], self._route[job.object]
+        pipeline = self._pipelines[job.object]
         delivery = pipeline.render(Impact(pipeline.effect.object_id, job.velocity, now, job.channel))
-        output = delivery.output
+        signal = delivery.output
+        limited = delivery.limiter.total > 0
         if out.limiter is not None:
-            output = output.with_samples(out.limiter.process(output.samples, at_s=now))
-        out.actuator.play(output)
-        played = Played(job.object, job.at, delivery, output, job.received, started, time.perf_counter())
+            before = out.limiter.report().total
+            signal = signal.with_samples(out.limiter.process(signal.samples, at_s=now))
+            limited = limited or out.limiter.report().total > before
+        out.actuator.play(signal)
+        playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,
+                            job.received, started, time.perf_counter(), delivery, signal)
         with self._lock:
             self._counts["rendered"] += 1
-            self._last.append(played)
-        return played
+            out.counts["rendered"] += 1
+            out.latencies.append(playback.latency_s)
+            out.failing = None
+            self._last.append(playback.summary())
+        return playback
 
-    def _failed(self, job: _Job, exc: Exception) -> None:
+    def _failed(self, out: _Output, job: _Job, exc: Exception) -> None:
         kind = type(exc).__name__
         with self._lock:
             self._counts["failed"] += 1
             self._errors[kind] = self._errors.get(kind, 0) + 1
-            first = self._errors[kind] == 1
+            out.counts["failed"] += 1
+            out.errors[kind] = out.errors.get(kind, 0) + 1
+            if isinstance(exc, DeviceError):
+                out.failing = one_line(str(exc), 200)
+        what = f"impact {job.object} at {job.velocity:.3g} m/s on {out.name} failed"
         if isinstance(exc, HapticfxError):
-            log.warning("impact %s at %.3g m/s failed: %s", job.object, job.velocity, exc)
-        elif first:
-            log.exception("impact %s at %.3g m/s failed (further %s errors are counted, not logged)",
-                          job.object, job.velocity, kind)
+            self._log.event((kind, out.name), f"{what}: {exc}")
+        else:
+            self._log.event((kind, out.name), f"{what} (a bug, not a bad input)", exc_info=exc)
 
     # --- state and shutdown ----------------------------------------------------------
 
     def stats(self) -> dict:
-        """Counters: submitted = queued + dropped_queue_full; queued = rendered + failed + cancelled + pending."""
+        """Counters, overall and per output.
+
+        submitted = queued + dropped_queue_full; queued = rendered + failed +
+        cancelled + pending. ``errors`` counts failures by kind; per output,
+        ``losses`` are impacts its device accepted but could not play in full
+        (for example voices cut short by a full mixer), by reason.
+        """
         with self._lock:
             out = dict(self._counts)
             out["errors"] = dict(self._errors)
             if self._close_errors:
                 out["close_errors"] = dict(self._close_errors)
-            lat = np.array([p.latency_s for p in self._last])
+            per = {name: (dict(o.counts), dict(o.errors), list(o.latencies), o.failing) for name, o in self._outputs.items()}
         out["pending"] = out["queued"] - out["rendered"] - out["failed"] - out["cancelled"]  # queued or rendering
-        if lat.size:
-            out["latency_ms"] = {
-                "n": int(lat.size), "median": float(np.median(lat) * 1e3), "p99": float(np.percentile(lat, 99) * 1e3),
-                "max": float(lat.max() * 1e3),
-            }
+        latency = _latency_summary(v for _, _, lat, _ in per.values() for v in lat)
+        if latency:
+            out["latency_ms"] = latency
+        outputs = {}
+        for name, (counts, errors, lat, failing) in per.items():
+            entry = {**counts, "pending": counts["queued"] - counts["rendered"] - counts["failed"] - counts["cancelled"]}
+            if errors:
+                entry["errors"] = errors
+            if failing:
+                entry["failing"] = failing
+            losses = self._outputs[name].actuator.losses()
+            if losses:
+                entry["losses"] = losses
+            summary = _latency_summary(lat)
+            if summary:
+                entry["latency_ms"] = summary
+            outputs[name] = entry
+        out["outputs"] = outputs
         return out
 
     def played(self) -> list[Played]:
-        """The last ``keep_last`` impacts played, oldest first."""
+        """Summaries of the last ``keep_last`` impacts played, oldest first."""
         with self._lock:
             return list(self._last)
 
     def close(self, *, drain: bool = True, timeout: float | None = None) -> dict:
-        """Stop accepting impacts; render what is queued (``drain``) or cancel it; close the actuators.
+        """Stop accepting impacts; play what is queued (``drain``) or cancel it; close the actuators.
 
-        Waits at most ``timeout`` seconds (default: the scene's
-        ``engine.close_timeout_s``) for the worker. Returns :meth:`stats`.
-        Closing twice is harmless.
+        Impacts queued for an output whose device is failing are cancelled, not
+        waited on. Waits at most ``timeout`` seconds (default: the scene's
+        ``engine.close_timeout_s``) for the workers, then closes every actuator
+        (in parallel). Returns :meth:`stats`. Closing twice is harmless.
         """
         with self._lock:
             already, self._closed = self._closed, True
@@ -272,41 +351,45 @@ class Engine:
             return self.stats()
         timeout = self.close_timeout_s if timeout is None else timeout
         deadline = time.monotonic() + timeout
-        if not drain:
-            self._cancel_pending()
-        while True:
-            try:
-                self._queue.put(_STOP, timeout=max(0.0, deadline - time.monotonic()) or 0.001)
-                break
-            except queue.Full:
-                if time.monotonic() >= deadline:
-                    self._cancel_pending()
-        self._worker.join(max(0.0, deadline - time.monotonic()))
-        if self._worker.is_alive():
-            log.warning("the engine's worker is still rendering after %.1f s; closing the actuators anyway", timeout)
-            self._cancel_pending()
         for out in self._outputs.values():
-            try:
-                out.actuator.close()
-            except Exception as exc:  # close every actuator even if one fails
-                log.warning("closing %s failed: %s", out.actuator.describe(), exc)
-                with self._lock:
-                    self._close_errors[out.actuator.describe()] = one_line(str(exc), 200)
+            if not drain or out.failing:
+                self._cancel_pending(out)
+            out.stop.set()
+        for out in self._outputs.values():
+            out.worker.join(max(0.0, deadline - time.monotonic()))
+        stuck = [out.name for out in self._outputs.values() if out.worker.is_alive()]
+        if stuck:
+            log.warning("still playing on %s after %.1f s; closing the actuators anyway", ", ".join(stuck), timeout)
+            for out in self._outputs.values():
+                self._cancel_pending(out)
+        closers = [threading.Thread(target=self._close_output, args=(out,), name=f"hapticfx-close:{out.name}")
+                   for out in self._outputs.values()]
+        for t in closers:
+            t.start()
+        for t in closers:
+            t.join()
+        self._log.flush()
         return self.stats()
 
-    def _cancel_pending(self) -> None:
+    def _close_output(self, out: _Output) -> None:
+        try:
+            out.actuator.close()
+        except Exception as exc:  # close every actuator even if one fails
+            log.warning("closing %s failed: %s", out.actuator.describe(), exc)
+            with self._lock:
+                self._close_errors[out.actuator.describe()] = one_line(str(exc), 200)
+
+    def _cancel_pending(self, out: _Output) -> None:
         n = 0
         while True:
             try:
-                job = self._queue.get_nowait()
+                out.queue.get_nowait()
             except queue.Empty:
-                break
-            if job is _STOP:
-                self._queue.put_nowait(_STOP)
                 break
             n += 1
         with self._lock:
             self._counts["cancelled"] += n
+            out.counts["cancelled"] += n
 
     def __enter__(self):
         return self

@@ -220,6 +220,10 @@ class Actuator(abc.ABC):
     def close(self) -> None:
         """Release the device."""
 
+    def losses(self) -> dict[str, int]:
+        """Impacts this device took but could not play in full, by reason (none by default)."""
+        return {}
+
     def describe(self) -> str:
         """Where the output goes, in a few words."""
         return self.name

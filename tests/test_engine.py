@@ -68,10 +68,10 @@ def registry():
     GATE.set()
 
 
-def scene(tmp_path, *, model="{type: test-gated}", queue=16, limits="", extra=""):
+def scene(tmp_path, *, model="{type: test-gated}", queue=16, limits="", extra="", frame_model=None):
     path = tmp_path / "scene.yaml"
-    def inline(n, o):
-        return f"{{name: {n}, object: {o}, model: {model}, actuator: {{type: memory}}}}"
+    def inline(n, o, m=model):
+        return f"{{name: {n}, object: {o}, model: {m}, actuator: {{type: memory}}}}"
 
     path.write_text(f"""
 name: t
@@ -80,14 +80,16 @@ actuators:
 effects:
   brick: {{actuator: helmet, channel: 0, inline: {inline('brick', 'concrete-brick')}}}
   plate: {{actuator: helmet, channel: 0, inline: {inline('plate', 'steel-plate')}}}
-  frame: {{inline: {inline('frame', 'plastic-frame')}}}
+  frame: {{inline: {inline('frame', 'plastic-frame', frame_model or model)}}}
 engine: {{queue_size: {queue}, close_timeout_s: 5}}
 {extra}""")
     return path
 
 
 def test_impact_returns_while_the_worker_renders_on_another_thread(tmp_path, registry):
-    engine = Engine(scene(tmp_path, model="{type: test-gated, gated: true}"), registry=registry)
+    playbacks = []
+    engine = Engine(scene(tmp_path, model="{type: test-gated, gated: true}"), registry=registry,
+                    on_played=playbacks.append)
     assert engine.impact("brick", 3.0, at=12.5) is True  # the render is held: a synchronous call would block here
     assert engine.stats()["rendered"] == 0
     GATE.set()
@@ -95,8 +97,11 @@ def test_impact_returns_while_the_worker_renders_on_another_thread(tmp_path, reg
     assert stats["rendered"] == 1 and stats["pending"] == 0
     assert RENDER_THREADS and threading.get_ident() not in RENDER_THREADS
     played = engine.played()[0]
-    assert played.at == 12.5 and played.object == "brick" and played.output.rate_hz == 2000
-    assert played.delivery.impact.object == "concrete-brick"  # the effect's object, not the scene key
+    assert played.at == 12.5 and played.object == "brick" and played.velocity == 3.0
+    assert played.output == "actuators.helmet#0" and played.peak == pytest.approx(playbacks[0].signal.peak)
+    assert not hasattr(played, "signal")  # the history keeps no samples
+    assert playbacks[0].signal.rate_hz == 2000 and playbacks[0].summary() == played
+    assert playbacks[0].delivery.impact.object == "concrete-brick"  # the effect's object, not the scene key
 
 
 def test_full_queue_drops_without_blocking_and_counts(tmp_path, registry):
@@ -118,7 +123,7 @@ def test_an_error_in_one_event_never_stops_the_engine(tmp_path, registry):
     stats = engine.close()
     assert stats["rendered"] == 3 and stats["failed"] == 3
     assert stats["errors"] == {"ValueError": 2, "SignalError": 1}
-    assert [p.delivery.impact.velocity for p in engine.played()] == [3.0, 3.5, 3.2]
+    assert [p.velocity for p in engine.played()] == [3.0, 3.5, 3.2]
 
 
 def test_bad_calls_raise_at_once(tmp_path, registry):
@@ -155,7 +160,10 @@ def test_many_threads_share_one_engine(tmp_path, registry):
     assert stats["submitted"] == 2400 == stats["queued"] == stats["rendered"] and all(results)
     shared = engine._outputs["actuators.helmet#0"].actuator
     own = engine._outputs["frame"].actuator
-    assert len(shared.played) == 1600 and len(own.played) == 800
+    assert shared.received == 1600 and own.received == 800
+    # the memory output keeps the newest 16 MiB: 800 x 9600 float64 samples are 59 MiB
+    assert own.released > 0 and len(own.played) + own.released == 800
+    assert sum(s.samples.nbytes for s in own.played) <= 16 * 2**20
 
 
 def test_shared_actuator_runs_its_own_limiter_over_all_its_effects(tmp_path, registry):
@@ -238,3 +246,81 @@ def test_a_raising_on_played_callback_is_counted_apart(tmp_path, registry):
     stats = engine.close()
     assert seen == ["frame"] * 3
     assert stats["rendered"] == 3 and stats["failed"] == 0 and stats["callback_errors"] == 3
+
+
+def _wait_for(condition, timeout=10.0):
+    """Poll ``condition`` until true (a state to reach, not a speed to meet); fails after ``timeout``."""
+    import time
+
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, "condition not reached"
+        time.sleep(0.01)
+
+
+def test_a_held_output_never_delays_another(tmp_path, registry):
+    # The shared helmet's effects are held in render; the frame has an output (and worker) of its own.
+    path = scene(tmp_path, model="{type: test-gated, gated: true}", frame_model="{type: test-gated}")
+    engine = Engine(path, registry=registry)
+    for _ in range(3):
+        assert engine.impact("brick", 3.0)
+    for _ in range(5):
+        assert engine.impact("frame", 3.0)
+    _wait_for(lambda: engine.stats()["outputs"]["frame"]["rendered"] == 5)
+    stats = engine.stats()
+    assert stats["outputs"]["actuators.helmet#0"]["rendered"] == 0  # still held
+    assert stats["outputs"]["actuators.helmet#0"]["pending"] == 3
+    GATE.set()
+    stats = engine.close()
+    assert stats["rendered"] == 8 and stats["pending"] == 0
+
+
+def test_channel_0_is_the_default_channel_of_an_entry_without_one(tmp_path, registry):
+    engine = Engine(scene(tmp_path), registry=registry)
+    assert engine.impact("frame", 3.0, channel=0)  # the scene sets no channel: the actuator's first
+    with pytest.raises(EffectError, match="plays on channel 0, not 1"):
+        engine.impact("frame", 3.0, channel=1)
+    assert engine.close()["rendered"] == 1
+
+
+def test_failures_are_logged_at_a_limited_rate_and_counted_by_reason(tmp_path, registry, caplog):
+    engine = Engine(scene(tmp_path, model="{type: test-gated, fail_at: 4.0}", queue=500), registry=registry)
+    with caplog.at_level("WARNING", logger="hapticfx.engine"):
+        for _ in range(200):
+            engine.impact("frame", 5.0)  # SignalError: a user-facing model error
+        for _ in range(100):
+            engine.impact("frame", 4.0)  # ValueError: a bug
+        stats = engine.close()
+    assert stats["failed"] == 300 and stats["errors"] == {"SignalError": 200, "ValueError": 100}
+    assert stats["outputs"]["frame"]["errors"] == {"SignalError": 200, "ValueError": 100}
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 4, lines  # per kind: the first at once, the rest in one line at close
+    assert sum("user-facing" in line for line in lines) == 2 and "199 more like it" in lines[-2] + lines[-1]
+    tracebacks = [r for r in caplog.records if r.exc_info]
+    assert len(tracebacks) == 1 and "a bug" in tracebacks[0].getMessage()
+
+
+def test_close_cancels_what_is_queued_for_a_failing_device(tmp_path, registry):
+    import time
+
+    from hapticfx.errors import DeviceError
+
+    engine = Engine(scene(tmp_path), registry=registry)
+    out = engine._outputs["frame"]
+    calls = []
+
+    def failing_play(signal):  # stands in for a board that stopped answering (no hardware here)
+        calls.append(1)
+        if len(calls) > 1:
+            time.sleep(0.3)  # its reply timeout
+        raise DeviceError("no answer within 0.3 s")
+
+    out.actuator.play = failing_play
+    for _ in range(10):
+        engine.impact("frame", 3.0)
+    _wait_for(lambda: engine.stats()["outputs"]["frame"]["failed"] >= 1)
+    stats = engine.close()
+    frame = stats["outputs"]["frame"]
+    assert frame["failing"].startswith("no answer")
+    # not waited on: what was still queued is cancelled, not tried one timeout after another
+    assert frame["cancelled"] >= 7 and frame["failed"] + frame["cancelled"] == 10 and frame["pending"] == 0

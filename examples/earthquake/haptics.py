@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hapticfx.effect import check_effect, effective_limits
-from hapticfx.engine import Played
+from hapticfx.engine import Playback
 from hapticfx.safety import LimiterReport, SafetyLimiter
 from hapticfx.scene import Scene
 from hapticfx.signal import Signal
@@ -27,7 +27,7 @@ class Mix:
     """The actuator output over the timeline, what was played, and the final limiter's account."""
 
     output: Signal
-    played: list[Played]
+    played: list[Playback]
     limiter: LimiterReport
 
 
@@ -42,15 +42,15 @@ def output_limits(scene: Scene):
     return spec.rate_hz, effective_limits(spec.limits, effect)
 
 
-def mix(played: list[Played], *, duration_s: float, rate_hz: float, limits) -> Mix:
-    """Sum each played output at its contact time (``Played.at``) and limit the sum."""
+def mix(played: list[Playback], *, duration_s: float, rate_hz: float, limits) -> Mix:
+    """Sum each played signal at its contact time (``Playback.at``) and limit the sum."""
     n = int(round(duration_s * rate_hz))
     timeline = np.zeros(n)
     for p in sorted(played, key=lambda p: p.at):
-        if p.output.rate_hz != rate_hz:
-            raise ValueError(f"{p.object}: played at {p.output.rate_hz} Hz, the timeline is at {rate_hz} Hz")
+        if p.signal.rate_hz != rate_hz:
+            raise ValueError(f"{p.object}: played at {p.signal.rate_hz} Hz, the timeline is at {rate_hz} Hz")
         start = int(round(p.at * rate_hz))
-        samples = p.output.samples if p.output.samples.ndim == 1 else p.output.samples.sum(axis=0)
+        samples = p.signal.samples if p.signal.samples.ndim == 1 else p.signal.samples.sum(axis=0)
         end = min(n, start + samples.shape[-1])
         if start < n:
             timeline[start:end] += samples[: end - start]

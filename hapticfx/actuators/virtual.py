@@ -8,6 +8,7 @@ real device would get.
 from __future__ import annotations
 
 import threading
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -27,25 +28,42 @@ def _plain_spec(rate_hz: float) -> ActuatorSpec:
 
 
 @dataclass(frozen=True)
-class _RateParams:
+class _MemoryParams:
     rate_hz: float = field(default=48000.0, metadata=doc("output sample rate (Hz)", min=100.0, max=384000.0))
+    keep_mib: float = field(default=16.0, metadata=doc(
+        "most recent signals kept, in MiB; older ones are let go (counted in `released`)", min=0.0, max=65536.0))
 
 
 class MemoryActuator(Actuator):
-    """Keeps every signal it is given, in order (``played``); for tests and embedding."""
+    """Keeps the signals it is given, newest last (``played``), up to ``keep_mib``; for tests and embedding.
+
+    Every signal counts as played (``received``); to keep memory bounded on a
+    long run the oldest are let go once the kept ones exceed ``keep_mib``
+    (``released`` counts them).
+    """
 
     name = "memory"
-    Params = _RateParams
+    Params = _MemoryParams
 
-    def __init__(self, params: _RateParams = _RateParams(), context: BuildContext = BuildContext(), *, spec: ActuatorSpec | None = None):
+    def __init__(self, params: _MemoryParams = _MemoryParams(), context: BuildContext = BuildContext(), *,
+                 spec: ActuatorSpec | None = None):
         self.spec = spec or _plain_spec(params.rate_hz)
         self.limits = self.spec.limits
-        self.played: list[Signal] = []
+        self.budget_bytes = int(params.keep_mib * 2**20)
+        self.played: deque[Signal] = deque()
+        self.received = 0
+        self.released = 0
+        self._bytes = 0
         self._lock = threading.Lock()
 
     def play(self, signal: Signal) -> None:
         with self._lock:
+            self.received += 1
             self.played.append(signal)
+            self._bytes += signal.samples.nbytes
+            while self._bytes > self.budget_bytes and self.played:
+                self._bytes -= self.played.popleft().samples.nbytes
+                self.released += 1
 
     def describe(self) -> str:
         return "memory"

@@ -8,7 +8,7 @@ send), each recorded drop a trial uses an entry of its own.
 from __future__ import annotations
 
 import dataclasses
-import threading
+import queue
 import time
 
 from ..effect import Section
@@ -51,11 +51,12 @@ class StimulusPlayer:
         from ..engine import Engine
 
         self.realtime = realtime
-        self._played = threading.Semaphore(0)
-        self.engine = Engine(study_scene(study, schedule), device=device, on_played=lambda p: self._played.release())
+        self._played: queue.SimpleQueue = queue.SimpleQueue()
+        self.engine = Engine(study_scene(study, schedule), device=device, on_played=self._played.put)
 
     def play(self, slot: Slot, gap_s: float) -> list:
-        """Play the slot's impacts in order, ``gap_s`` apart; returns their :class:`~hapticfx.engine.Played` records."""
+        """Play the slot's impacts in order, ``gap_s`` apart; returns their :class:`~hapticfx.engine.Playback`
+        records (with the signals sent)."""
         out = []
         for k, (velocity, drop) in enumerate(zip(slot.velocities, slot.drops)):
             if k and self.realtime:
@@ -63,14 +64,18 @@ class StimulusPlayer:
             failed = self.engine.stats()["failed"]
             self.engine.impact(entry_id(slot.stimulus, drop), velocity)
             deadline = time.monotonic() + 30.0
-            while not self._played.acquire(timeout=0.05):
-                stats = self.engine.stats()
-                if stats["failed"] > failed or time.monotonic() > deadline:
-                    raise DeviceError(f"playing {slot.stimulus} at {velocity} m/s failed: {stats['errors'] or 'timed out'}")
-            played = self.engine.played()[-1]
+            while True:
+                try:
+                    played = self._played.get(timeout=0.05)
+                    break
+                except queue.Empty:
+                    stats = self.engine.stats()
+                    if stats["failed"] > failed or time.monotonic() > deadline:
+                        raise DeviceError(
+                            f"playing {slot.stimulus} at {velocity} m/s failed: {stats['errors'] or 'timed out'}") from None
             out.append(played)
             if self.realtime:
-                time.sleep(played.output.duration_s)
+                time.sleep(played.duration_s)
         return out
 
     def close(self) -> None:

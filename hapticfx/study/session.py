@@ -145,7 +145,7 @@ class Session:
             return self.state()
 
     def play(self, index: int, slot_name: str) -> list:
-        """Play one slot of the current trial; returns what reached the actuator (engine ``Played`` records)."""
+        """Play one slot of the current trial; returns what reached the actuator (engine ``Playback`` records)."""
         with self._lock:
             trial = self._current(index)
             task = self.tasks[trial.task]

@@ -41,9 +41,9 @@ def band_levels_db(samples: np.ndarray, rate_hz: float) -> np.ndarray:
 
 
 def perceptual_distance(a: list, b: list) -> float:
-    """Distance between two played slots (lists of engine ``Played``): mean RMS band-level difference over 10 dB."""
-    fa = np.mean([band_levels_db(p.output.samples, p.output.rate_hz) for p in a], axis=0)
-    fb = np.mean([band_levels_db(p.output.samples, p.output.rate_hz) for p in b], axis=0)
+    """Distance between two played slots (lists of engine ``Playback``): mean RMS band-level difference over 10 dB."""
+    fa = np.mean([band_levels_db(p.signal.samples, p.signal.rate_hz) for p in a], axis=0)
+    fb = np.mean([band_levels_db(p.signal.samples, p.signal.rate_hz) for p in b], axis=0)
     return float(np.sqrt(np.mean((fa - fb) ** 2)) / 10.0)
 
 
