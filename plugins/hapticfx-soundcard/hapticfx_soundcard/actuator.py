@@ -33,7 +33,7 @@ class SoundCardParams:
         default="low", metadata=doc("output latency: PortAudio's 'low' or 'high' class, or seconds", min=0.001, max=1.0))
     blocksize: int = field(default=0, metadata=doc("frames per audio callback; 0 lets the host choose", min=0, max=8192))
     max_impacts: int = field(default=64, metadata=doc("impacts sounding at once; the oldest is cut when full", min=1, max=4096))
-    watchdog_s: float = field(default=0.5, metadata=doc("a stream silent this long counts as failed", min=0.05, max=5.0))
+    watchdog_s: float = field(default=0.5, metadata=doc("a stream silent this long is an outage, then reopened", min=0.05, max=5.0))
 
 
 class SoundCardActuator(Actuator):
@@ -98,7 +98,7 @@ class SoundCardActuator(Actuator):
         stream.play(self.channel, signal.samples)
 
     def check(self) -> None:
-        """Raise :class:`DeviceError` if the device failed since it was opened."""
+        """Raise :class:`DeviceError` while the device is unavailable (it is being reopened)."""
         self._require_stream().check()
 
     def drain(self, timeout: float | None = 10.0) -> None:
@@ -111,6 +111,15 @@ class SoundCardActuator(Actuator):
         stream, self._stream = self._stream, None
         if stream is not None:
             streams.release(stream, self.channel, drain_timeout_s=10.0)
+
+    def losses(self) -> dict[str, int]:
+        """Impacts taken but not played in full: cut for a newer one when ``max_impacts`` were sounding
+        (``voice_stolen``), longer than the mixer's ring (``truncated``), cut off by an outage (``outage``)."""
+        stream = self._stream
+        if stream is None:
+            return {}
+        counts = {"voice_stolen": stream.mixer.stolen, "truncated": stream.mixer.truncated, "outage": stream.lost}
+        return {k: v for k, v in counts.items() if v}
 
     @property
     def underflows(self) -> int:

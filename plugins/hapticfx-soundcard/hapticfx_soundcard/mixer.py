@@ -91,6 +91,14 @@ class Mixer:
                     self._add_at(old_channel, self._clock, old[done:], -1.0)
                 self.stolen += 1
 
+    def clear(self) -> int:
+        """Silence everything queued or sounding; returns how many impacts were cut."""
+        with self._lock:
+            cut = sum(1 for _, end, _, _ in self._voices if end > self._clock)
+            self._voices.clear()
+            self._ring[:] = 0.0
+        return cut
+
     @property
     def voices(self) -> int:
         """Impacts queued or still sounding."""

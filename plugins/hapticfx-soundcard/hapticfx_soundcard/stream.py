@@ -2,12 +2,18 @@
 
 The stream's callback asks a :class:`~hapticfx_soundcard.mixer.Mixer` for each
 block. A watchdog thread and PortAudio's finished callback turn a stream that
-stopped on its own (sound server killed, device removed) into a
-:class:`DeviceError` within ``watchdog_s``; nothing waits on a dead stream.
+stalls or stops on its own (sound server stalled, killed or restarted, device
+removed) into an *outage* within ``watchdog_s``: what was still sounding is
+counted as lost, and until the device is back every ``play`` raises
+:class:`DeviceError` at once (the engine counts those impacts as failed). The
+watchdog then brings the output back: a stalled stream that resumes is taken
+again as it is; a stream that stopped is reopened, every ``RETRY_S``, until the
+device answers. Nothing waits on a dead stream.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 
@@ -17,6 +23,11 @@ from hapticfx.interfaces import SafetyLimits
 
 from .devices import OutputDevice, import_sounddevice
 from .mixer import Mixer
+from .noise import FILTER
+
+log = logging.getLogger(__name__)
+
+RETRY_S = 0.2  # between attempts to reopen a stream that stopped
 
 _streams: dict[int, "DeviceStream"] = {}
 _streams_lock = threading.Lock()
@@ -30,9 +41,6 @@ def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: Safet
     """
     with _streams_lock:
         stream = _streams.get(device.index)
-        if stream is not None and stream.error is not None:
-            stream.shutdown()
-            stream = None
         if stream is None:
             stream = DeviceStream(device, rate_hz, latency=latency, blocksize=blocksize,
                                   max_voices=max_voices, watchdog_s=watchdog_s)
@@ -61,7 +69,7 @@ def release(stream: "DeviceStream", channel: int, *, drain_timeout_s: float) -> 
             del _streams[stream.device.index]
     if last:
         try:
-            if stream.error is None:
+            if stream.outage is None:
                 stream.drain(drain_timeout_s)
         finally:
             stream.shutdown()
@@ -93,7 +101,7 @@ def _abort(stream, *, wait_s: float) -> bool:
 
 
 class DeviceStream:
-    """A running output stream on one device, mixing impacts on its channels."""
+    """A running output stream on one device, mixing impacts on its channels, reopened after an outage."""
 
     def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, blocksize: int,
                  max_voices: int, watchdog_s: float):
@@ -105,13 +113,19 @@ class DeviceStream:
         self.mixer = Mixer(min(2, device.channels), self.rate_hz, max_voices=max_voices)
         self.users: set[int] = set()
         self.underflows = 0
-        self.error: str | None = None
-        self.error_at: float | None = None
+        self.outage: str | None = None  # why the device cannot play now
+        self.outages = 0
+        self.lost = 0  # impacts cut off by an outage
+        self.downtime_s: list[float] = []  # how long each outage lasted, once over
+        self._outage_since = 0.0
+        self._last_attempt = 0.0
         self._last_callback = time.monotonic()
+        self._generation = 0  # callbacks of a stream this one replaced are ignored
         self._stream = None
-        self._stopping = False
+        self._state = threading.Lock()
+        self._stop = threading.Event()
         self._watchdog: threading.Thread | None = None
-        self._stop_watchdog = threading.Event()
+        self._filtering = False
 
     # --- lifetime -------------------------------------------------------------------
 
@@ -127,78 +141,119 @@ class DeviceStream:
         self.mixer.set_limits(channel, limits)
         self.users.add(channel)
         if self._stream is None or self._stream.channels < self.mixer.channels:
-            self._restart()
+            self._open()
+        if self._watchdog is None:
+            self._watchdog = threading.Thread(target=self._watch, name="hapticfx-soundcard-watchdog", daemon=True)
+            self._watchdog.start()
 
-    def _restart(self) -> None:
+    def _open(self) -> None:
+        """(Re)open the stream; DeviceError if the device refuses."""
         sd = import_sounddevice()
-        if self._stream is not None:
-            self._close_stream(self._stream)
-        self._stopping = False
+        if not self._filtering:
+            FILTER.acquire()
+            self._filtering = True
+        old, self._stream = self._stream, None
+        with self._state:
+            self._generation += 1
+            generation = self._generation
+        if old is not None:
+            _abort(old, wait_s=1.0)
         try:
             stream = sd.OutputStream(
                 device=self.device.index, samplerate=self.rate_hz, channels=self.mixer.channels,
                 dtype="float32", latency=self.latency, blocksize=self.blocksize,
-                callback=self._callback, finished_callback=self._finished,
+                callback=lambda *a: self._callback(generation, *a),
+                finished_callback=lambda: self._finished(generation),
             )
             self._last_callback = time.monotonic()
             stream.start()
         except sd.PortAudioError as exc:
             raise DeviceError(f"cannot open sound output {self.device.name!r}: {exc}") from None
         self._stream = stream
-        if self._watchdog is None:
-            self._watchdog = threading.Thread(target=self._watch, name="hapticfx-soundcard-watchdog", daemon=True)
-            self._watchdog.start()
-
-    def _close_stream(self, stream) -> None:
-        self._stopping = True
-        _abort(stream, wait_s=1.0)
 
     def shutdown(self) -> None:
         """Stop the stream and the watchdog (does not wait for queued impacts)."""
-        self._stop_watchdog.set()
+        self._stop.set()
+        with self._state:
+            self._generation += 1  # its finished callback is ours, not an outage
         if self._stream is not None:
-            self._close_stream(self._stream)
+            _abort(self._stream, wait_s=1.0)
             self._stream = None
+        if self._filtering:
+            self._filtering = False
+            FILTER.release()
 
     # --- real-time side -------------------------------------------------------------
 
-    def _callback(self, outdata: np.ndarray, frames: int, time_info, status) -> None:
+    def _callback(self, generation: int, outdata: np.ndarray, frames: int, time_info, status) -> None:
+        if generation != self._generation:
+            outdata.fill(0.0)
+            return
         self._last_callback = time.monotonic()
         if status.output_underflow:
             self.underflows += 1
         self.mixer.render_into(outdata)
 
-    def _finished(self) -> None:
-        if not self._stopping:
-            self._fail("the sound stream stopped by itself (sound server gone or device removed)")
+    def _finished(self, generation: int) -> None:
+        if generation == self._generation and not self._stop.is_set():
+            self._lose("the sound stream stopped by itself (sound server gone or device removed)")
 
-    def _fail(self, why: str) -> None:
-        if self.error is None:
-            self.error = f"sound output {self.device.name!r} failed: {why}"
-            self.error_at = time.monotonic()
+    # --- outages --------------------------------------------------------------------
+
+    def _lose(self, why: str) -> None:
+        with self._state:  # with play(): every impact is either cut here (and counted) or refused
+            if self.outage is not None:
+                return
+            cut = self.mixer.clear()
+            self.lost += cut
+            self.outage = why
+            self._outage_since = time.monotonic()
+            self.outages += 1
+        log.warning("sound output %r unavailable: %s; %d impact(s) cut off; reconnecting",
+                    self.device.name, why, cut)
+
+    def _back(self, how: str) -> None:
+        with self._state:
+            down = time.monotonic() - self._outage_since
+            self.outage = None
+        self.downtime_s.append(down)
+        log.warning("sound output %r is back after %.2f s (%s)", self.device.name, down, how)
 
     def _watch(self) -> None:
-        period = min(0.1, self.watchdog_s / 4)
-        while not self._stop_watchdog.wait(period):
-            if self._stopping or self.error is not None:
+        period = min(0.05, self.watchdog_s / 4)
+        while not self._stop.wait(period):
+            now = time.monotonic()
+            silent = now - self._last_callback
+            if self.outage is None:
+                if silent > self.watchdog_s:
+                    self._lose(f"no audio callback for {silent:.2f} s (sound server stalled or gone)")
                 continue
-            silent = time.monotonic() - self._last_callback
-            if silent > self.watchdog_s:
-                self._fail(f"no audio callback for {silent:.2f} s (sound server stalled or gone)")
-                self._stop_watchdog.set()
-                if self._stream is not None:
-                    _abort(self._stream, wait_s=1.0)
+            stream = self._stream
+            if stream is not None and stream.active:
+                if silent < 2 * period:  # the stall is over: the stream goes on as it was
+                    self._back("the stream resumed")
+                continue  # still stalled; if the server dies meanwhile, the finished callback says so
+            if now - self._last_attempt < RETRY_S:
+                continue
+            self._last_attempt = now
+            try:
+                self._open()
+            except DeviceError:
+                continue
+            self._back("stream reopened")
 
     # --- caller side ----------------------------------------------------------------
 
     def check(self) -> None:
-        """Raise :class:`DeviceError` if the stream has failed."""
-        if self.error is not None:
-            raise DeviceError(self.error)
+        """Raise :class:`DeviceError` while the device is unavailable."""
+        why = self.outage
+        if why is not None:
+            raise DeviceError(f"sound output {self.device.name!r} unavailable: {why}; reconnecting")
 
     def play(self, channel: int, samples: np.ndarray) -> None:
-        self.check()
-        self.mixer.add(channel, samples)
+        with self._state:
+            self.check()
+            self.mixer.add(channel, samples)
 
     def drain(self, timeout_s: float | None) -> None:
         """Wait until every queued impact has left the device (its output latency included)."""
