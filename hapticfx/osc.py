@@ -114,6 +114,16 @@ def decode_message(data: bytes) -> tuple[str, str, list]:
     return address, tags, args
 
 
+def _osc_string(text: str) -> bytes:
+    raw = text.encode("utf-8") + b"\x00"
+    return raw + b"\x00" * (-len(raw) % 4)
+
+
+def encode_impact(object: str, velocity: float) -> bytes:
+    """The datagram ``/hapticfx/impact ,sf object velocity`` (for benchmarks and tools that send impacts)."""
+    return _osc_string(IMPACT_ADDRESS) + _osc_string(",sf") + _osc_string(object) + struct.pack(">f", velocity)
+
+
 @dataclass(frozen=True)
 class ImpactMessage:
     """A decoded ``/hapticfx/impact``: object, velocity, optional channel and time."""

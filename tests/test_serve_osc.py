@@ -204,3 +204,15 @@ def test_struct_layout_of_a_hand_built_message():
     # Independent of both implementations: the bytes OSC 1.0 prescribes.
     data = b"/hapticfx/impact\x00\x00\x00\x00" + b",sf\x00" + b"brick\x00\x00\x00" + struct.pack(">f", 2.5)
     assert parse_impact(*decode_message(data)[1:]) == ImpactMessage("brick", 2.5)
+
+
+def test_encode_impact_is_the_datagram_python_osc_builds():
+    from pythonosc.osc_message_builder import OscMessageBuilder
+
+    from hapticfx.osc import decode_message, encode_impact, parse_impact
+
+    b = OscMessageBuilder("/hapticfx/impact")
+    b.add_arg("concrete-brick")
+    b.add_arg(3.8, "f")
+    assert encode_impact("concrete-brick", 3.8) == b.build().dgram
+    assert parse_impact(*decode_message(encode_impact("wood-beam", 2.5))[1:]).object == "wood-beam"

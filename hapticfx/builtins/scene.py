@@ -87,7 +87,7 @@ def bench_serve(*, impacts: int, interval_s: float, scene_path: Path | None, ech
     import numpy as np
 
     from ..engine import Engine
-    from ..osc import OscBridge
+    from ..osc import OscBridge, encode_impact
     from ..timing import Timing, ms, table
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -103,7 +103,7 @@ def bench_serve(*, impacts: int, interval_s: float, scene_path: Path | None, ech
                 addr = bridge.address
                 sends = {
                     "direct": lambda obj, v: engine.impact(obj, v),
-                    "osc": lambda obj, v: client.sendto(_impact_datagram(obj, v), addr),
+                    "osc": lambda obj, v: client.sendto(encode_impact(obj, v), addr),
                 }
                 runs = {"direct": [], "osc": []}
                 # 20 warm-up impacts (first-use imports, caches), then both paths interleaved
@@ -147,7 +147,7 @@ def _bench_drop_costs(engine) -> str:
     """Per-datagram cost of each drop path: what a flood costs the server."""
     import random
 
-    from ..osc import OscBridge, TokenBucket
+    from ..osc import OscBridge, TokenBucket, encode_impact
     from ..timing import measure, table
 
     rng = random.Random(0)
@@ -155,8 +155,8 @@ def _bench_drop_costs(engine) -> str:
         "rate_limited (bucket empty)": (b"/hapticfx/impact\x00" * 3, TokenBucket(1e-9, 1)),
         "oversize (1500 B)": (rng.randbytes(1500), None),
         "not_osc (random 200 B)": (b"\x01" + rng.randbytes(199), None),
-        "wrong_address": (_impact_datagram("x", 1.0).replace(b"/hapticfx/impact", b"/hapticfx/impacx"), None),
-        "unknown_object": (_impact_datagram("anvil", 3.8), None),
+        "wrong_address": (encode_impact("x", 1.0).replace(b"/hapticfx/impact", b"/hapticfx/impacx"), None),
+        "unknown_object": (encode_impact("anvil", 3.8), None),
     }
     rows = []
     bridge = OscBridge(engine.submit, engine.objects, port=0, rate_hz=0)
@@ -170,15 +170,6 @@ def _bench_drop_costs(engine) -> str:
     finally:
         bridge.stop()
     return table(["datagram", "median us", "p99 us", "datagrams/s at the median"], rows)
-
-
-def _impact_datagram(obj: str, velocity: float) -> bytes:
-    from pythonosc.osc_message_builder import OscMessageBuilder
-
-    b = OscMessageBuilder("/hapticfx/impact")
-    b.add_arg(obj)
-    b.add_arg(velocity, "f")
-    return b.build().dgram
 
 
 _STARTUP_PROBE = """
