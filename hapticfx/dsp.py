@@ -16,6 +16,7 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
+from numpy.fft import irfft, rfft  # imported here, not lazily on the first impact
 
 
 @lru_cache(maxsize=16)
@@ -107,7 +108,7 @@ def causal_butterworth(x: np.ndarray, rate_hz: float, *, low_hz: float | None, h
     slowest = min(e for e in (low_hz, high_hz) if e)
     ring = int(math.ceil(20.0 * rate_hz / (2 * math.pi * slowest)))  # 20 time constants of the slowest pole
     nfft = _next_pow2(n + ring)
-    return np.fft.irfft(np.fft.rfft(x, nfft) * _response(rate_hz, low_hz, high_hz, nfft), nfft)[..., :n]
+    return irfft(rfft(x, nfft) * _response(rate_hz, low_hz, high_hz, nfft), nfft)[..., :n]
 
 
 def taper(x: np.ndarray, rate_hz: float, *, fade_in_s: float, fade_out_s: float) -> np.ndarray:
