@@ -3,13 +3,13 @@
 Latency is read from a loopback capture: an input stream records the sound
 server's monitor of the output device, and each impact's first sample is
 found in it and timestamped with PortAudio's capture (ADC) clock, the same
-clock that was read when ``play`` was called.
+clock that was read when the impact was submitted.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -86,46 +86,111 @@ def click(rate_hz: float) -> np.ndarray:
     return np.full(max(8, int(rate_hz / 1000)), CLICK_LEVEL)
 
 
-def first_sample_latencies(play: Callable[[np.ndarray], None], rate_hz: float, n: int, *,
-                           gap_s: float = 0.25, progress: Callable[[int], None] | None = None) -> np.ndarray:
-    """Seconds from each ``play(click)`` call to its first sample in the loopback capture.
+@dataclass
+class TimedPath:
+    """One timed path: how to send an impact, and what it sends (filled in as it plays)."""
 
-    NaN for a click not heard before the next one was played (``gap_s`` later).
+    name: str
+    send: Callable[[float], None]
+    channel: int
+    signals: list = field(default_factory=list)  # what reached the device, in order (None: not played)
+    calls: list = field(default_factory=list)    # capture-clock time of each send
+
+
+def first_sample_latencies(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
+                           underflows: Callable[[], int], velocities=(2.45, 5.2),
+                           progress: Callable[[int], None] | None = None,
+                           seed: int = 0) -> tuple[dict[str, np.ndarray], int]:
+    """Seconds from each send to the first sample of what it played, per path, in one interleaved run,
+    and the stream underflows (``underflows()`` counts them) during the sends.
+
+    Every round sends once on each path (in a rotating order), ``gap_s`` apart, at a
+    velocity drawn from ``velocities``. The onset of a played signal is where the
+    capture first reaches half its peak; the time its own samples take to get there
+    is subtracted, which gives the capture time of its first sample. NaN: not heard
+    before the next send.
     """
-    signal = click(rate_hz)
-    calls = []
+    rng = np.random.default_rng(seed)
     with LoopbackRecorder(rate_hz) as rec:
         time.sleep(0.3)
+        before = underflows()
         for i in range(n):
-            calls.append(rec.now())
-            play(signal)
-            time.sleep(gap_s)
+            k = i % len(paths)
+            for p in paths[k:] + paths[:k]:
+                v = float(rng.uniform(*velocities))
+                p.calls.append(rec.now())
+                p.send(v)
+                time.sleep(gap_s)
             if progress:
                 progress(i + 1)
+        during = underflows() - before
         time.sleep(0.3)
-    x, t = rec.capture.timeline(0)
-    heard = onsets(x, t)
-    out = []
-    for t_call in calls:
-        later = heard[(heard >= t_call) & (heard < t_call + gap_s)]
-        out.append(later[0] - t_call if later.size else np.nan)
-    return np.array(out)
+    out = {}
+    for p in paths:
+        x, t = rec.capture.timeline(p.channel)
+        lat = []
+        for t_call, sig in zip(p.calls, p.signals):
+            if sig is None:
+                lat.append(np.nan)
+                continue
+            peak = float(np.max(np.abs(sig)))
+            lead = int(np.argmax(np.abs(sig) >= 0.5 * peak))  # samples from its first to half its peak
+            window = (t >= t_call) & (t < t_call + gap_s)
+            hit = np.flatnonzero(window & (np.abs(x) >= 0.5 * peak))
+            lat.append(t[hit[0]] - lead / rate_hz - t_call if hit.size else np.nan)
+        out[p.name] = np.array(lat)
+    return out, during
 
 
-def mix_real_time_factor(voices: int, *, rate_hz: float = 48000.0, block: int = 256,
-                         seconds: float = 1.0, limits: SafetyLimits = SafetyLimits()) -> float:
-    """Audio seconds mixed per CPU second with ``voices`` impacts sounding at once, on one core."""
+def block_wall_times(voices: int, block: int, *, rate_hz: float = 48000.0, seconds: float = 1.0,
+                     limits: SafetyLimits = SafetyLimits()) -> tuple[np.ndarray, np.ndarray]:
+    """Wall seconds of each ``render_into`` (the audio callback's work) of ``block`` frames with
+    ``voices`` impacts sounding at once, and of each ``add`` that queued them."""
     n = int(seconds * rate_hz)
     tt = np.arange(n) / rate_hz
     rng = np.random.default_rng(0)
-    mixer = Mixer(1, rate_hz, max_voices=voices)
+    mixer = Mixer(1, rate_hz, max_voices=max(voices, 1))
     mixer.set_limits(0, limits)
+    adds = []
     for _ in range(voices):
-        f = rng.uniform(40, 400)
-        mixer.add(0, 0.3 * np.exp(-tt * 3.0) * np.sin(2 * np.pi * f * tt))
+        signal = 0.3 * np.exp(-tt * 3.0) * np.sin(2 * np.pi * rng.uniform(40, 400) * tt) / max(1.0, voices ** 0.5)
+        t0 = time.perf_counter()
+        mixer.add(0, signal)
+        adds.append(time.perf_counter() - t0)
     out = np.zeros((block, 1), dtype=np.float32)
-    start = time.process_time()
+    walls = []
     for _ in range(n // block):
+        t0 = time.perf_counter()
         mixer.render_into(out)
-    cpu = time.process_time() - start
-    return (n // block) * block / rate_hz / max(cpu, 1e-9)
+        walls.append(time.perf_counter() - t0)
+    return np.array(walls), np.array(adds)
+
+
+def recovery_runs(mode: str, repeats: int, *, script: str,
+                  progress: Callable[[str], None] | None = None) -> list[dict[str, str]]:
+    """Run :mod:`hapticfx_soundcard.faultprobe` ``repeats`` times in ``mode`` against a server of its own."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    from . import virtualserver
+
+    runs = []
+    for i in range(repeats):
+        with tempfile.TemporaryDirectory(prefix="hapticfx-bench-") as runtime:
+            env = {**os.environ, "HAPTICFX_XDG": runtime, "XDG_RUNTIME_DIR": runtime, "HAPTICFX_SOUNDSERVER": script}
+            virtualserver.start(runtime, script)
+            try:
+                pid = (Path(runtime) / "pulse" / "pid").read_text().strip()
+                done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid], env=env,
+                                      capture_output=True, text=True, timeout=120)
+            finally:
+                virtualserver.stop(runtime)
+        seen = dict(line.split(" ", 1) for line in done.stdout.splitlines() if " " in line)
+        seen["returncode"] = str(done.returncode)
+        runs.append(seen)
+        if progress:
+            progress(f"  {mode} {i + 1}/{repeats}: back in {seen.get('recovered_s', '?')} s, heard {seen.get('heard', '?')}")
+    return runs

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Optional
+
 import numpy as np
 import typer
 from hapticfx.errors import SignalError
@@ -23,82 +26,163 @@ def devices():
     typer.echo("* = default output; pick one with `actuator: {device: NAME or INDEX}` or --device")
 
 
-def _row(label: str, values_s) -> str:
-    """A table row: median, p99, min, max in ms of the heard clicks, and how many were lost."""
+def _row(label: str, values_s, floor=None) -> str:
+    """A table row: median, p99, min, max in ms of the heard impacts, how many were lost, and
+    the median and p99 above the floor's."""
     v = np.asarray(values_s) * 1000
     heard = v[~np.isnan(v)]
     if not heard.size:
-        return f"| {label} | - | - | - | - | {v.size} |"
-    return (f"| {label} | {np.median(heard):.2f} | {np.percentile(heard, 99):.2f} | {heard.min():.2f} | "
-            f"{heard.max():.2f} | {v.size - heard.size} |")
+        return f"| {label} | - | - | - | - | {v.size} | - | - |"
+    med, p99 = np.median(heard), np.percentile(heard, 99)
+    above = ("-", "-") if floor is None else (f"{med - floor[0]:+.2f}", f"{p99 - floor[1]:+.2f}")
+    return (f"| {label} | {med:.2f} | {p99:.2f} | {heard.min():.2f} | {heard.max():.2f} | {v.size - heard.size} "
+            f"| {above[0]} | {above[1]} |")
 
 
-def bench_output(
-    impacts: int = typer.Option(100, "--impacts", "-n", min=5, help="Clicks timed for the latency figures."),
-    latencies: list[str] = typer.Option(["low", "0.004"], "--latency",
-                                        callback=lambda values: [_latency(v) for v in values],
-                                        help="Mixer stream latency to time: 'low', 'high' or seconds (repeatable)."),
-    device: str = typer.Option("default", "--device", "-d", help="Sound output to time (its monitor must be the default input)."),
-    seconds: float = typer.Option(1.0, "--seconds", min=0.1, help="Audio seconds mixed per capacity point."),
-    repeats: int = typer.Option(3, "--repeats", min=1, help="Repeats per capacity point (median and spread)."),
-    round_trips: int = typer.Option(200, "--round-trips", min=1, help="Solenoid commands timed."),
-):
-    """Output-path timings: first-sample latency (loopback capture), mixer capacity, solenoid round trip.
+DEFAULT_EFFECTS = ("effects/falling_brick_kinetic.yaml", "effects/falling_brick_linear.yaml",
+                   "effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml")
+BLOCKS = (48, 104, 256)  # 48: PortAudio's block at a 4 ms buffer here; 104: at 'low'; 256: a common setting
 
-    Latency needs a sound server whose default input records the output (the PulseAudio
-    null sink of .ci/soundserver.sh). The baseline is sounddevice.play(), one new stream
-    per impact, timed the same way in the same run.
-    """
+
+def _latency_section(effects: list[Path], impacts: int, latency, device: str, gap_s: float) -> None:
+    import socket
+    import tempfile
+
+    from hapticfx.engine import Engine
+    from hapticfx.osc import OscBridge, encode_impact
     from hapticfx.params import BuildContext
 
     from . import bench
     from .actuator import VibroTransducer
-    from .devices import import_sounddevice
 
-    sd = import_sounddevice()
-    typer.echo(f"## collision-to-first-sample latency ({impacts} clicks, ms)\n")
-    typer.echo("| path | median | p99 | min | max | clicks lost |\n|---|---:|---:|---:|---:|---:|")
-    medians = []
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = Path(tmp) / "bench-output.yaml"
+        names = [p.stem for p in effects]
+        lines = [f"name: bench-output\nactuators:\n  helmet: {{type: vibro-transducer, device: {device!r}, "
+                 f"latency: {latency!r}}}\neffects:"]
+        osc_object = names[-2] if len(names) > 1 else names[0]
+        entries = [*zip(names, effects), (f"osc-{osc_object}", effects[names.index(osc_object)])]
+        lines += [f"  {n}: {{effect: {str(p.resolve())!r}, actuator: helmet, channel: 0}}" for n, p in entries]
+        scene.write_text("\n".join(lines) + "\nengine: {queue_size: 16}\n")
+        paths: dict[str, bench.TimedPath] = {}
+
+        def played(p):
+            paths[p.object].signals.append(p.signal.samples)
+
+        with Engine(scene, on_played=played) as engine:
+            floor_act = VibroTransducer(VibroTransducer.Params(latency=latency), BuildContext(device=device, channel=1))
+            with floor_act:
+                rate = floor_act.spec.rate_hz
+                ready = bench.click(rate)
+                floor = bench.TimedPath("floor: a ready click into the same stream", None, 1)
+
+                def floor_send(v):
+                    floor_act.play(ready)
+                    floor.signals.append(ready)
+
+                floor.send = floor_send
+                paths["floor"] = floor
+                for n in names:
+                    paths[n] = bench.TimedPath(n, lambda v, n=n: engine.impact(n, v), 0)
+                bridge = OscBridge(engine.submit, engine.objects, port=0, rate_hz=0)
+                with bridge, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+                    addr = bridge.address
+                    paths[f"osc-{osc_object}"] = bench.TimedPath(f"OSC datagram, {osc_object}", lambda v: client.sendto(
+                        encode_impact(f"osc-{osc_object}", v), addr), 0)
+                    at_start = floor_act.underflows
+                    lat, underflows = bench.first_sample_latencies(
+                        list(paths.values()), rate, impacts, gap_s=gap_s, underflows=lambda: floor_act.underflows,
+                        progress=lambda i: _progress(f"latency {latency}", i, impacts))
+            stats = engine.close()
+    floor_lat = lat[floor.name] * 1000
+    heard = floor_lat[~np.isnan(floor_lat)]
+    ref = (np.median(heard), np.percentile(heard, 99)) if heard.size else None
+    typer.echo(f"\n### stream latency {latency}: {impacts} impacts per path, {gap_s:g} s apart, paths interleaved; "
+               f"{underflows} stream underflows during the {impacts * len(paths)} sends ({at_start} while the "
+               f"streams started); engine: {stats['rendered']} played, "
+               f"{stats['failed']} failed, {stats['dropped_queue_full']} dropped\n")
+    typer.echo("| path (ms) | median | p99 | min | max | not heard | median - floor | p99 - floor |\n"
+               "|---|---:|---:|---:|---:|---:|---:|---:|")
+    for key, p in paths.items():
+        label = p.name if key == "floor" or key.startswith("osc-") else f"Engine.impact, {p.name}"
+        typer.echo(_row(label, lat[p.name], None if key == "floor" else ref))
+
+
+def bench_output(
+    effects: Optional[list[Path]] = typer.Argument(None, help="Effects whose models are timed (default: the falling "
+                                                             "brick with kinetic, linear, ensemble and ConvBiLSTM table)."),
+    impacts: int = typer.Option(250, "--impacts", "-n", min=1, help="Impacts timed per path and latency setting."),
+    latencies: list[str] = typer.Option(["low"], "--latency",
+                                        callback=lambda values: [_latency(v) for v in values],
+                                        help="Stream latency to time: 'low', 'high' or seconds (repeatable)."),
+    gap: float = typer.Option(0.55, "--gap", min=0.05, help="Seconds between impacts (longer than one impact)."),
+    device: str = typer.Option("default", "--device", "-d", help="Sound output to time (its monitor must be the default input)."),
+    seconds: float = typer.Option(2.0, "--seconds", min=0.1, help="Audio seconds mixed per capacity point."),
+    voices: list[int] = typer.Option([1, 100, 1000, 4096], "--voices", help="Impacts sounding at once (repeatable)."),
+    recoveries: int = typer.Option(3, "--recoveries", min=0, help="Stalls and restarts of a private sound server timed "
+                                                                  "(0: skip)."),
+    round_trips: int = typer.Option(200, "--round-trips", min=1, help="Solenoid commands timed."),
+):
+    """Output-path timings: impact to first sample, mixer capacity, recovery, solenoid round trip.
+
+    Latency: Engine.impact() (and an OSC datagram) to the first sample captured from the
+    sound server's monitor, per model, through the effect's vibro-transducer spec, the
+    engine's queue and worker, shaping, the limiters and the mixer; the floor is a ready
+    click written into the same stream in the same run. Needs a sound server whose
+    default input records the output (the PulseAudio null sink of .ci/soundserver.sh).
+    Capacity: the audio callback's wall time at the block sizes PortAudio uses here,
+    against the block's period. Recovery: a private server (.ci/soundserver.sh) stalled
+    for 1 s or killed and restarted under a playing actuator.
+    """
+    from . import bench
+
+    paths = [Path(p) for p in (effects or DEFAULT_EFFECTS)]
+    for p in paths:
+        if not p.is_file():
+            raise SignalError(f"{p}: no such effect file (run from the repository root, or name effect files)")
+    typer.echo(f"## impact to first sample (ms), {len(paths)} models")
     for latency in latencies:
-        params = VibroTransducer.Params(latency=latency)
-        act = VibroTransducer(params, BuildContext(device=device))
-        with act:
-            rate = act.spec.rate_hz
-            lat = bench.first_sample_latencies(act.play, rate, impacts,
-                                               progress=lambda i: _progress(f"mixer {latency}", i, impacts))
-            underflows = act.underflows
-        typer.echo(_row(f"hapticfx mixer, latency {latency} ({underflows} stream underflows)", lat))
-        medians.append(np.nanmedian(lat))
-    base = bench.first_sample_latencies(lambda x: sd.play(x, rate, device=act_device(device), latency="low"),
-                                        rate, impacts, progress=lambda i: _progress("sd.play", i, impacts))
-    sd.stop()
-    typer.echo(_row("baseline: sounddevice.play per impact", base))
-    ratios = ", ".join(f"{lat_}: {np.nanmedian(base) / m:.2f}" for lat_, m in zip(latencies, medians))
-    typer.echo(f"\nmedian latency ratio baseline / mixer ({ratios}; above 1: the mixer is faster)\n")
+        _latency_section(paths, impacts, latency, device, gap)
 
-    typer.echo(f"## mixer capacity (one core, 48 kHz, 256-frame blocks, limiter on; {repeats} repeats)\n")
-    typer.echo("| impacts at once | x real time (median) | min | max |\n|---:|---:|---:|---:|")
-    capacity = 0
-    voices = 1
-    while voices <= 16384:
-        runs = [bench.mix_real_time_factor(voices, seconds=seconds) for _ in range(repeats)]
-        med = float(np.median(runs))
-        typer.echo(f"| {voices} | {med:.1f} | {min(runs):.1f} | {max(runs):.1f} |")
-        if med >= 1.0:
-            capacity = voices
+    typer.echo(f"\n## mixer capacity (one core, 48 kHz, limiter on; {seconds:g} s of audio per point)\n")
+    typer.echo("| block (frames) | period ms | impacts at once | callback median ms | p99 | max | p99 / period "
+               "| add() median us |\n|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for block in BLOCKS:
+        period = block / 48000.0
+        for n in voices:
+            walls, adds = bench.block_wall_times(n, block, seconds=seconds)
+            p99 = np.percentile(walls, 99)
+            add = f"{np.median(adds) * 1e6:.1f}" if adds.size else "-"
+            typer.echo(f"| {block} | {period * 1e3:.2f} | {n} | {np.median(walls) * 1e3:.4f} | {p99 * 1e3:.4f} "
+                       f"| {walls.max() * 1e3:.4f} | {p99 / period:.3f} | {add} |")
+
+    if recoveries:
+        script = Path(".ci/soundserver.sh").resolve()
+        typer.echo(f"\n## recovery after the sound server comes back ({recoveries} runs each)\n")
+        if not script.is_file():
+            typer.echo("skipped: .ci/soundserver.sh not found (run from the repository root)")
         else:
-            break
-        voices *= 2 if voices < 64 else 4
-    typer.echo(f"\nlargest measured count mixed faster than real time: {capacity}\n")
+            typer.echo("| fault | detected (s, median) | back after its return (s): median | max | impacts heard after "
+                       "| cut off by the outage |\n|---|---:|---:|---:|---:|---:|")
+            for mode, label in (("stall-resume", "server stopped 1 s, then continued"),
+                                ("restart", "server killed, then started again")):
+                runs = bench.recovery_runs(mode, recoveries, script=str(script), progress=_say)
+                back = [float(r["recovered_s"]) for r in runs if r.get("recovered_s", "never") != "never"]
+                det = [float(r["detected_s"]) for r in runs if r.get("detected_s", "never") != "never"]
+                heard = sum(int(r.get("heard", 0)) for r in runs)
+                lost = sum(int(r.get("lost", 0)) for r in runs)
+                typer.echo(f"| {label} | {np.median(det):.3f} | {np.median(back):.3f} | {max(back):.3f} "
+                           f"| {heard}/{len(runs)} (never back: {len(runs) - len(back)}) | {lost} |" if back and det
+                           else f"| {label} | - | never | - | 0/{len(runs)} | {lost} |")
 
-    typer.echo("## solenoid command round trip (pseudo-terminal + emulator)\n")
+    typer.echo("\n## solenoid command round trip (pseudo-terminal + emulator)\n")
     try:
         from hapticfx_solenoid.bench import round_trips as solenoid_round_trips
     except ImportError:
         typer.echo("the solenoid plugin (hapticfx-solenoid) is not installed; skipped")
         return
     rt = solenoid_round_trips(round_trips)
-    typer.echo("| path (ms) | median | p99 | min | max | lost |\n|---|---:|---:|---:|---:|---:|")
+    typer.echo("| path (ms) | median | p99 | min | max | lost | | |\n|---|---:|---:|---:|---:|---:|---|---|")
     typer.echo(_row(f"solenoid command round trip ({round_trips})", rt))
 
 
@@ -114,16 +198,13 @@ def _latency(text: str | float) -> str | float:
     return seconds
 
 
-def act_device(device: str):
-    """The PortAudio device index that ``device`` names (for the baseline)."""
-    from .devices import resolve_device
-
-    return resolve_device(device).index
-
-
 def _progress(label: str, i: int, n: int) -> None:
     if i == n or i % 20 == 0:
-        typer.echo(f"  {label}: {i}/{n} clicks", err=True)
+        typer.echo(f"  {label}: {i}/{n} rounds", err=True)
+
+
+def _say(message: str) -> None:
+    typer.echo(message, err=True)
 
 
 def add_commands(app: typer.Typer, bench: typer.Typer) -> None:

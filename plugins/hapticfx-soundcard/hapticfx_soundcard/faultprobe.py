@@ -1,9 +1,13 @@
-"""An embedding program whose sound server fails mid-stream (run by test_soundcard_faults.py).
+"""A program whose sound server fails under a playing actuator: ``python -m hapticfx_soundcard.faultprobe MODE PID``.
 
-argv: MODE and the PulseAudio pid. MODE is kill | unload | stall (the server
-stays broken), or stall-resume (stopped for 1 s, then continued) | restart
-(killed, then started again by .ci/soundserver.sh). Prints one ``key value``
-line per observation; exits 0 when it survived.
+Run by the fault tests and by ``hapticfx bench output``, each against a PulseAudio
+server of its own (PID). MODE is kill | unload | stall (the server stays broken),
+or stall-resume (stopped for 1 s, then continued) | restart (killed, then started
+again by .ci/soundserver.sh, whose path is in ``HAPTICFX_SOUNDSERVER``). Prints one
+``key value`` line per observation; exits 0 when it survived. ``recovered_s`` is
+from the server's return (continued, or answering ``pactl info`` again) to the
+first impact the actuator takes again; ``heard`` counts the clicks then recorded
+from the sink's monitor.
 """
 
 import os
@@ -11,7 +15,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 from hapticfx.errors import DeviceError
@@ -22,7 +25,6 @@ from hapticfx.signal import Signal
 from hapticfx_soundcard.actuator import VibroTransducer
 from hapticfx_soundcard.bench import LoopbackRecorder, click, onsets
 
-SCRIPT = Path(__file__).resolve().parents[3] / ".ci" / "soundserver.sh"
 mode, server_pid = sys.argv[1], int(sys.argv[2])
 rate = 48000
 tone = Signal(0.2 * np.sin(2 * np.pi * 100 * np.arange(2 * rate) / rate), rate)
@@ -77,9 +79,17 @@ if mode in ("stall-resume", "restart"):
     if mode == "stall-resume":
         time.sleep(max(0.0, t_fault + 1.0 - time.monotonic()))
         os.kill(server_pid, signal.SIGCONT)
+        t_back = time.monotonic()
     else:
-        subprocess.run(["bash", str(SCRIPT)], check=True, capture_output=True, timeout=30)
-    t_back = time.monotonic()
+        server = subprocess.Popen(["bash", os.environ["HAPTICFX_SOUNDSERVER"]], stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
+        # client.conf (written by the script) says autospawn = no: pactl must not start a server of its own
+        quiet = {**os.environ, "PULSE_CLIENTCONFIG": os.path.join(os.environ["XDG_RUNTIME_DIR"], "client.conf")}
+        while subprocess.run(["pactl", "info"], capture_output=True, env=quiet).returncode != 0:
+            if server.poll() not in (None, 0):
+                raise SystemExit("the sound server did not start again")
+            time.sleep(0.01)
+        t_back = time.monotonic()
     while True:
         try:
             act.check()
@@ -96,6 +106,8 @@ if mode in ("stall-resume", "restart"):
         time.sleep(0.4)
     x, t = rec.capture.timeline(0)
     say("heard", len(onsets(x, t)))
+    if mode == "restart":
+        server.wait(timeout=30)  # the script's keep-alive and settle time
 
 t = time.monotonic()
 act.close()

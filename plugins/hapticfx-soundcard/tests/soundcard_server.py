@@ -30,14 +30,6 @@ def start_soundserver(runtime_dir: str | None = None) -> str:
 
 def stop_soundserver(runtime_dir: str) -> None:
     """Stop the server (and its keep-alive) that start_soundserver started in ``runtime_dir``."""
-    import signal
+    from hapticfx_soundcard.virtualserver import stop
 
-    for pid_file, program in (("pulse/pid", b"pulseaudio"), ("keepalive.pid", b"pacat")):
-        path = Path(runtime_dir) / pid_file
-        try:
-            pid = int(path.read_text().strip())
-            if program in Path(f"/proc/{pid}/cmdline").read_bytes():
-                os.kill(pid, signal.SIGCONT)
-                os.kill(pid, signal.SIGTERM)
-        except (OSError, ValueError):
-            pass  # already gone
+    stop(runtime_dir)

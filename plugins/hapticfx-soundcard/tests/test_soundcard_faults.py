@@ -1,6 +1,6 @@
 """Faults on a real sound server: it dies, stalls, or its device disappears mid-stream, and comes back.
 
-Each runs an embedding program (soundcard_fault_child.py) against its own PulseAudio
+Each runs an embedding program (hapticfx_soundcard.faultprobe) against its own PulseAudio
 instance, so the shared test server is not touched, and checks: a clear
 DeviceError within 1 s, play() during the outage raises at once, what was sounding
 is counted as lost, another actuator keeps working, close() returns, the program
@@ -18,7 +18,7 @@ import pytest
 from soundcard_server import start_soundserver, stop_soundserver
 
 pytestmark = pytest.mark.soundserver
-CHILD = Path(__file__).with_name("soundcard_fault_child.py")
+SCRIPT = Path(__file__).resolve().parents[3] / ".ci" / "soundserver.sh"
 
 
 def run_child(mode, tmp_path):
@@ -26,9 +26,9 @@ def run_child(mode, tmp_path):
     start_soundserver(runtime)
     try:
         pid = (Path(runtime) / "pulse" / "pid").read_text().strip()
-        env = {**os.environ, "XDG_RUNTIME_DIR": runtime, "HAPTICFX_XDG": runtime}
-        done = subprocess.run([sys.executable, str(CHILD), mode, pid], env=env, capture_output=True,
-                              text=True, timeout=60)
+        env = {**os.environ, "XDG_RUNTIME_DIR": runtime, "HAPTICFX_XDG": runtime, "HAPTICFX_SOUNDSERVER": str(SCRIPT)}
+        done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid], env=env,
+                              capture_output=True, text=True, timeout=60)
     finally:
         stop_soundserver(runtime)
     assert done.returncode == 0, done.stdout + done.stderr

@@ -61,3 +61,23 @@ def test_hapticfx_play_uses_the_default_sound_device(soundserver):
                           timeout=60)
     assert done.returncode == 0, done.stderr
     assert "-> vibro-transducer on default device, channel 0, 48000 Hz" in done.stdout
+
+
+@pytest.mark.soundserver
+def test_bench_output_times_every_path_against_its_floor(soundserver):
+    """A short run of the benchmark: every path heard, its rows and the capacity table printed."""
+    import os
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[3]
+    done = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "output", "effects/falling_brick_kinetic.yaml",
+                           "effects/falling_brick.yaml", "-n", "3", "--gap", "0.3", "--seconds", "0.1",
+                           "--voices", "1000", "--recoveries", "0", "--round-trips", "5"], cwd=repo,
+                          env={**os.environ, "XDG_RUNTIME_DIR": soundserver}, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    rows = {line.split(" | ")[0].strip("| "): line for line in done.stdout.splitlines() if line.startswith("| ")}
+    for label in ("floor: a ready click into the same stream", "Engine.impact, falling_brick_kinetic",
+                  "Engine.impact, falling_brick", "OSC datagram, falling_brick_kinetic"):
+        cells = rows[label].strip("| ").split(" | ")
+        assert cells[5] == "0", rows[label]  # not heard: none
+    assert any(line.startswith("| 48 | 1.00 | 1000 |") for line in done.stdout.splitlines())
