@@ -32,7 +32,9 @@ class SoundCardParams:
     latency: Literal["low", "high"] | float = field(
         default="low", metadata=doc("output latency: PortAudio's 'low' or 'high' class, or seconds", min=0.001, max=1.0))
     blocksize: int = field(default=0, metadata=doc("frames per audio callback; 0 lets the host choose", min=0, max=8192))
-    max_impacts: int = field(default=64, metadata=doc("impacts sounding at once; the oldest is cut when full", min=1, max=4096))
+    max_impacts: int = field(default=1000, metadata=doc(
+        "impacts sounding at once; the oldest is cut when full (1000 fit a 48-frame block: docs/benchmarks.md)",
+        min=1, max=4096))
     watchdog_s: float = field(default=0.5, metadata=doc("a stream silent this long is an outage, then reopened", min=0.05, max=5.0))
 
 
