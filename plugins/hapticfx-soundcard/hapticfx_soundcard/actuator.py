@@ -33,7 +33,7 @@ class SoundCardParams:
         default="low", metadata=doc("output latency: PortAudio's 'low' or 'high' class, or seconds", min=0.001, max=1.0))
     blocksize: int = field(default=0, metadata=doc("frames per audio callback; 0 lets the host choose", min=0, max=8192))
     max_impacts: int = field(default=1000, metadata=doc(
-        "impacts sounding at once; the oldest is cut when full (1000 fit a 48-frame block: docs/benchmarks.md)",
+        "impacts sounding at once; one more is not mixed in (1000 fit a 48-frame block: docs/benchmarks.md)",
         min=1, max=4096))
     watchdog_s: float = field(default=0.5, metadata=doc("a stream silent this long is an outage, then reopened", min=0.05, max=5.0))
 
@@ -115,12 +115,12 @@ class SoundCardActuator(Actuator):
             streams.release(stream, self.channel, drain_timeout_s=10.0)
 
     def losses(self) -> dict[str, int]:
-        """Impacts taken but not played in full: cut for a newer one when ``max_impacts`` were sounding
-        (``voice_stolen``), longer than the mixer's ring (``truncated``), cut off by an outage (``outage``)."""
+        """Impacts taken but not played in full: not mixed in because ``max_impacts`` were sounding
+        (``voice_cap``), longer than the mixer's ring (``truncated``), cut off by an outage (``outage``)."""
         stream = self._stream
         if stream is None:
             return {}
-        counts = {"voice_stolen": stream.mixer.stolen, "truncated": stream.mixer.truncated, "outage": stream.lost}
+        counts = {"voice_cap": stream.mixer.refused, "truncated": stream.mixer.truncated, "outage": stream.lost}
         return {k: v for k, v in counts.items() if v}
 
     @property

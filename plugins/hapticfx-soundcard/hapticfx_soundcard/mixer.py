@@ -5,15 +5,16 @@
 into a ring buffer per channel when it is added (on the caller's thread, a few
 microseconds per thousand samples), so a block costs the same however many
 impacts overlap: the callback copies ``frames`` samples out of the ring and runs
-each sounding channel's safety limiter on them. At most ``max_voices`` impacts
-sound at once; a new one beyond that takes the place of the oldest, whose rest
-is subtracted from the ring.
+each sounding channel's safety limiter on them. The mixer keeps no impact's
+samples once they are summed (only where each ends), so its memory is the ring,
+whatever the count. At most ``max_voices`` impacts sound at once; one more is
+refused and counted (``refused``).
 """
 
 from __future__ import annotations
 
+import heapq
 import threading
-from collections import deque
 
 import numpy as np
 from hapticfx.errors import SignalError
@@ -43,11 +44,11 @@ class Mixer:
         self.max_voices = int(max_voices)
         self._size = 1 << int(np.ceil(np.log2(max(1024, ring_s * self.rate_hz))))
         self._ring = np.zeros((self.channels, self._size))
-        self._voices: deque[tuple[int, int, int, np.ndarray]] = deque()  # (start, end, channel, samples)
+        self._ends: list[int] = []  # heap: where each sounding impact ends (ring position)
         self._limiters: list[SafetyLimiter | None] = [None] * self.channels
         self._lock = threading.Lock()
         self._clock = 0  # frames rendered so far: the ring position of the next block
-        self.stolen = 0  # impacts cut short because max_voices were already sounding
+        self.refused = 0  # impacts not mixed in because max_voices were already sounding
         self.truncated = 0  # impacts longer than the ring, cut to its length
         self.rendered_frames = 0
 
@@ -63,15 +64,22 @@ class Mixer:
                 self._limiters.extend([None] * (channels - self.channels))
                 self.channels = channels
 
-    def _add_at(self, channel: int, start: int, samples: np.ndarray, sign: float) -> None:
+    def _add_at(self, channel: int, start: int, samples: np.ndarray) -> None:
         first = start % self._size
         n1 = min(samples.size, self._size - first)
-        self._ring[channel, first:first + n1] += sign * samples[:n1]
+        self._ring[channel, first:first + n1] += samples[:n1]
         if n1 < samples.size:
-            self._ring[channel, :samples.size - n1] += sign * samples[n1:]
+            self._ring[channel, :samples.size - n1] += samples[n1:]
 
-    def add(self, channel: int, samples: np.ndarray) -> None:
-        """Queue one impact (1D, normalised) on ``channel``; it starts with the next block."""
+    def _prune(self) -> None:
+        while self._ends and self._ends[0] <= self._clock:
+            heapq.heappop(self._ends)
+
+    def add(self, channel: int, samples: np.ndarray) -> bool:
+        """Mix one impact (1D, normalised) into ``channel`` from the next block on; thread-safe.
+
+        False (and counted in ``refused``) when ``max_voices`` impacts are sounding.
+        """
         if self._limiters[channel] is None:
             raise SignalError(f"channel {channel} has no safety limits; call set_limits first")
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
@@ -79,23 +87,20 @@ class Mixer:
             x = x[: self._size // 2]
             self.truncated += 1
         with self._lock:
-            start = self._clock
-            self._add_at(channel, start, x, 1.0)
-            self._voices.append((start, start + x.size, channel, x))
-            if len(self._voices) > self.max_voices:  # drop those already over, then steal the oldest
-                self._voices = deque(v for v in self._voices if v[1] > self._clock)
-            if len(self._voices) > self.max_voices:
-                old_start, old_end, old_channel, old = self._voices.popleft()
-                done = self._clock - old_start
-                if done < old.size:
-                    self._add_at(old_channel, self._clock, old[done:], -1.0)
-                self.stolen += 1
+            self._prune()
+            if len(self._ends) >= self.max_voices:
+                self.refused += 1
+                return False
+            self._add_at(channel, self._clock, x)
+            heapq.heappush(self._ends, self._clock + x.size)
+        return True
 
     def clear(self) -> int:
         """Silence everything queued or sounding; returns how many impacts were cut."""
         with self._lock:
-            cut = sum(1 for _, end, _, _ in self._voices if end > self._clock)
-            self._voices.clear()
+            self._prune()
+            cut = len(self._ends)
+            self._ends.clear()
             self._ring[:] = 0.0
         return cut
 
@@ -103,7 +108,8 @@ class Mixer:
     def voices(self) -> int:
         """Impacts queued or still sounding."""
         with self._lock:
-            return sum(1 for _, end, _, _ in self._voices if end > self._clock)
+            self._prune()
+            return len(self._ends)
 
     @property
     def busy(self) -> bool:
@@ -121,8 +127,7 @@ class Mixer:
             self._ring[:, idx] = 0.0
             start_s = self._clock / self.rate_hz
             self._clock += frames
-            while self._voices and self._voices[0][1] <= self._clock:
-                self._voices.popleft()
+            self._prune()
         self.rendered_frames += frames
         out.fill(0.0)
         for ch in range(min(self.channels, out.shape[1])):

@@ -75,7 +75,7 @@ class NoiseFilter:
             os.dup2(saved, self.fd)  # the pipe's last write end closes: the pump reads to its end
             thread = self._thread
         if thread is not None:
-            thread.join(timeout=1.0)
+            thread.join(timeout=5.0)  # it forwards what is still in the pipe, then sees its end
         alive = thread is not None and thread.is_alive()  # a child process still holds the pipe
         if self.hidden:
             first = (self.first or b"").decode("utf-8", "replace").strip()[:100]
