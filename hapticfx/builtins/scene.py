@@ -279,6 +279,28 @@ def register_commands(app, bench):
         typer.echo(bench_serve(impacts=impacts, interval_s=interval_ms / 1e3, scene_path=scene,
                                echo=lambda line: typer.echo(line, err=True)))
 
+    @bench.command("flood")
+    def bench_flood_cmd(
+        scene: Path = typer.Argument(Path("scenes/earthquake_room.yaml"), help="Scene to serve."),
+        seconds: float = typer.Option(60.0, min=1.0, help="How long to flood."),
+        rate: float = typer.Option(3500.0, min=1.0, help="Impacts sent per second."),
+        device: str = typer.Option(None, help="Replace every actuator ('memory', 'wav:PATH'); default: the scene's own."),
+    ):
+        """`hapticfx serve` under a sustained OSC flood: resident memory over time, and every impact accounted for."""
+        from .flood import accounting, run
+
+        r = run(scene, seconds=seconds, rate=rate, device=device, echo=lambda line: typer.echo(line, err=True))
+        where = f"--device {device}" if device else "the scene's own actuators"
+        typer.echo(f"{r['sent']} impacts in {seconds:g} s ({rate:g}/s) to `hapticfx serve {scene}` ({where})\n")
+        typer.echo("| resident memory (MiB) | start | max | end | end - start |\n|---|---:|---:|---:|---:|")
+        typer.echo(f"| serve process | {r['rss_start']:.1f} | {r['rss_max']:.1f} | {r['rss_end']:.1f} "
+                   f"| {r['rss_end'] - r['rss_start']:+.1f} |\n")
+        typer.echo("| impacts | count |\n|---|---:|")
+        for label, n in accounting(r):
+            typer.echo(f"| {label} | {n} |")
+        typer.echo(f"\nserve exited {r['returncode']}; {r['stderr_lines']} line(s) on its stderr"
+                   + (f", last: {r['stderr_tail'][-1]!r}" if r["stderr_tail"] else ""))
+
     @bench.command("scene")
     def bench_scene_cmd(
         runs: int = typer.Option(5, min=1, help="Fresh processes per scene."),
