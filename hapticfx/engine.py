@@ -247,6 +247,8 @@ class Engine:
                 playback = self._play(out, job, time.monotonic() - self._t0)
             except Exception as exc:  # one bad event must never stop the engine
                 self._failed(out, job, exc)
+                if out.stop.is_set() and out.failing:  # closing: the rest would only fail the same way
+                    self._cancel_pending(out)
                 continue
             if self.on_played is not None:
                 try:
