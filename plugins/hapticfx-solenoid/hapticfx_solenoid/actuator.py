@@ -114,6 +114,7 @@ class SolenoidActuator(Actuator):
         self._max_on_ms = 0
         self._on_until_ms = 0
         self._lock = threading.Lock()  # one command on the line at a time, whoever calls play()
+        self._answering = True  # false once a command failed: close() then does not wait for a reply
 
     # --- device --------------------------------------------------------------------
 
@@ -164,10 +165,13 @@ class SolenoidActuator(Actuator):
 
     def _close(self) -> None:
         if self._link is not None:
-            try:
-                self._link.request("STOP")
-            except DeviceError:
-                pass  # the port is gone or the board is confused; closing must still succeed
+            if self._answering:
+                try:
+                    self._link.request("STOP")
+                except DeviceError:
+                    pass  # the port is gone or the board is confused; closing must still succeed
+            else:  # it stopped answering: STOP goes out all the same, without waiting for a reply
+                self._link.send("STOP")
             self._link.close()
             self._link = None
         self._stop_emulator()
@@ -212,7 +216,12 @@ class SolenoidActuator(Actuator):
         with self._lock:
             if self._link is None:
                 raise DeviceError("solenoid: play() before open()", source=self.port)
-            self._fire(pulse)
+            try:
+                self._fire(pulse)
+            except DeviceError:
+                self._answering = False
+                raise
+            self._answering = True
 
     def _fire(self, pulse: Pulse | None) -> None:
         if pulse is None:

@@ -85,6 +85,16 @@ class SerialLink:
                               f"bytes; got {raw[:40]!r} (not the hapticfx solenoid protocol?)", source=self.port)
         return decode_line(raw, what=what, source=self.port)
 
+    def send(self, command: str) -> None:
+        """Send one command line without waiting for its reply (best effort; never raises)."""
+        if self._serial is None:
+            return
+        try:
+            self._serial.write(command.encode("ascii") + b"\n")
+            self._serial.flush()
+        except Exception:  # the port may be gone; there is no one to tell
+            pass
+
     def _read_line(self) -> bytes:
         """Bytes up to and including the newline, or what came before the deadline / length limit."""
         deadline = time.monotonic() + self.timeout_s
