@@ -42,3 +42,14 @@ def test_faulty_board_is_one_line_and_exit_2():
 def test_missing_port_is_one_line_and_exit_2():
     done = play("--device", "/dev/ttyACM-hapticfx-missing")
     assert done.returncode == 2 and done.stderr.startswith("hapticfx: error: /dev/ttyACM-hapticfx-missing: cannot open")
+
+
+def test_bench_isolation_a_silent_board_loses_nothing_on_the_other_output():
+    from hapticfx_solenoid.isolation import run_once
+
+    healthy, silent = run_once(False, 12, 0.02), run_once(True, 12, 0.02)
+    assert healthy["helmet"]["rendered"] == silent["helmet"]["rendered"] == 12
+    assert healthy["coil"]["rendered"] == 3 and healthy["coil"]["failed"] == 0
+    # the silent board's impacts fail (the first) or are cancelled at close (the rest): none is waited on
+    assert silent["coil"]["rendered"] == 0 and silent["coil"]["failed"] >= 1
+    assert silent["coil"]["failed"] + silent["coil"]["cancelled"] == 3 and silent["coil"]["pending"] == 0
