@@ -6,6 +6,7 @@ import random
 import socket
 import struct
 import time
+from pathlib import Path
 
 import pytest
 from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
@@ -216,3 +217,14 @@ def test_encode_impact_is_the_datagram_python_osc_builds():
     b.add_arg(3.8, "f")
     assert encode_impact("concrete-brick", 3.8) == b.build().dgram
     assert parse_impact(*decode_message(encode_impact("wood-beam", 2.5))[1:]).object == "wood-beam"
+
+
+@pytest.mark.parametrize("scene", sorted(str(p) for p in Path(__file__).resolve().parents[1].glob("scenes/*.yaml")))
+def test_every_shipped_scene_takes_an_impact_on_channel_0(scene):
+    """docs/protocol.md's example and a Unity client send channel 0; no shipped scene sets one."""
+    from hapticfx.engine import Engine
+    from hapticfx.osc import ImpactMessage
+
+    with Engine(scene, device="memory") as engine:
+        assert engine.submit(ImpactMessage(engine.objects[0], 3.0, channel=0), 0.0)
+    assert engine.stats()["rendered"] == 1
