@@ -14,6 +14,7 @@ device answers. Nothing waits on a dead stream.
 from __future__ import annotations
 
 import logging
+import sys
 import threading
 import time
 
@@ -28,6 +29,7 @@ from .noise import FILTER
 log = logging.getLogger(__name__)
 
 RETRY_S = 0.2  # between attempts to reopen a stream that stopped
+SWITCH_INTERVAL_S = 0.001
 
 _streams: dict[int, "DeviceStream"] = {}
 _streams_lock = threading.Lock()
@@ -149,6 +151,9 @@ class DeviceStream:
     def _open(self) -> None:
         """(Re)open the stream; DeviceError if the device refuses."""
         sd = import_sounddevice()
+        # The audio callback is Python: it needs the GIL within a block's period. By default a thread
+        # doing Python work keeps the GIL 5 ms before it must hand it over; 1 ms keeps blocks on time.
+        sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
         if not self._filtering:
             FILTER.acquire()
             self._filtering = True

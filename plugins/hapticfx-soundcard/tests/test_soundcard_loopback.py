@@ -2,6 +2,8 @@
 
 import time
 
+import sys
+
 import numpy as np
 import pytest
 from hapticfx.errors import DeviceError
@@ -47,6 +49,7 @@ def test_played_signal_comes_back_unchanged(soundserver):
     sig = impact()
     with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
         assert act.spec.rate_hz == RATE
+        assert sys.getswitchinterval() <= 0.001  # the Python callback gets the GIL within a block
         cap = record_while(lambda: act.play(Signal(sig, RATE)), sig.size / RATE)
         assert act.limiter_report().total == 0
     got, _ = align(cap[:, 0], sig)
