@@ -4,6 +4,7 @@
 # that clients must export. Recipe and settle time: docs/soundcard.md.
 #   HAPTICFX_XDG   runtime dir to use (default /tmp/hapticfx-xdg); a second dir
 #                  gives a second, independent server (the fault tests kill theirs).
+#   --stop         stop the server of that dir and its keep-alive player instead.
 set -euo pipefail
 
 for tool in pulseaudio pactl pacat; do
@@ -28,6 +29,31 @@ keepalive() {
   sleep 2.5
 }
 
+ours() {  # is pid $1 still the program $2 (and not a recycled pid)?
+  grep -qa "$2" "/proc/$1/cmdline" 2>/dev/null
+}
+stop_server() {
+  # Its pid files go too: a killed daemon can linger as a zombie where nothing reaps it,
+  # and PulseAudio would take that pid for a running daemon.
+  local pid
+  if [ -f "$XDG_RUNTIME_DIR/keepalive.pid" ]; then
+    pid="$(cat "$XDG_RUNTIME_DIR/keepalive.pid")"
+    if ours "$pid" pacat; then kill "$pid" 2>/dev/null || true; fi
+    rm -f "$XDG_RUNTIME_DIR/keepalive.pid"
+  fi
+  if [ -f "$XDG_RUNTIME_DIR/pulse/pid" ]; then
+    pid="$(cat "$XDG_RUNTIME_DIR/pulse/pid")"
+    if ours "$pid" pulseaudio; then kill -CONT "$pid" 2>/dev/null || true; kill "$pid" 2>/dev/null || true; fi
+    sleep 0.3
+    rm -f "$XDG_RUNTIME_DIR/pulse/pid"
+  fi
+}
+
+if [ "${1:-}" = "--stop" ]; then
+  stop_server
+  exit 0
+fi
+
 if pactl info >/dev/null 2>&1 && pactl list short sinks 2>/dev/null | grep -q vsink; then
   if ! grep -qa pacat "/proc/$(cat "$XDG_RUNTIME_DIR/keepalive.pid" 2>/dev/null)/cmdline" 2>/dev/null; then
     keepalive
@@ -43,23 +69,7 @@ set-default-sink vsink
 set-default-source vsink.monitor
 PA
 
-# A stale daemon on this dir (sink unloaded, or not answering) is replaced. Its pid
-# file goes too: a killed daemon can linger as a zombie where nothing reaps it, and
-# PulseAudio would take that pid for a running daemon.
-ours() {  # is pid $1 still the program $2 (and not a recycled pid)?
-  grep -qa "$2" "/proc/$1/cmdline" 2>/dev/null
-}
-if [ -f "$XDG_RUNTIME_DIR/pulse/pid" ]; then
-  pid="$(cat "$XDG_RUNTIME_DIR/pulse/pid")"
-  if ours "$pid" pulseaudio; then kill "$pid" 2>/dev/null || true; fi
-  sleep 0.3
-  rm -f "$XDG_RUNTIME_DIR/pulse/pid"
-fi
-if [ -f "$XDG_RUNTIME_DIR/keepalive.pid" ]; then
-  pid="$(cat "$XDG_RUNTIME_DIR/keepalive.pid")"
-  if ours "$pid" pacat; then kill "$pid" 2>/dev/null || true; fi
-  rm -f "$XDG_RUNTIME_DIR/keepalive.pid"
-fi
+stop_server  # a stale daemon on this dir (sink unloaded, or not answering) is replaced
 
 # Running as root is allowed headless; PulseAudio only warns about it.
 if ! pulseaudio --daemonize=yes --exit-idle-time=-1 --disallow-exit -n \

@@ -16,14 +16,35 @@ if [ "${1:-}" = "--test" ]; then
   # The study page is tested in Debian's headless chromium through selenium.
   apt_packages+=(chromium chromium-driver)
 fi
+apt_get() {
+  # apt-get that waits for another package manager (unattended-upgrades, a second install) to let go
+  # of its locks instead of failing: apt itself waits on dpkg's lock, and a run that still could not
+  # get one is tried again, for up to 15 minutes.
+  local waited=0 out
+  while true; do
+    if out=$(apt-get -o DPkg::Lock::Timeout=120 "$@" 2>&1); then return 0; fi
+    if grep -qiE "could not get lock|unable to acquire|is held by process" <<<"$out" && [ "$waited" -lt 900 ]; then
+      echo "install: another package manager holds apt's lock; waiting (${waited} s so far)"
+      sleep 15
+      waited=$((waited + 15))
+      continue
+    fi
+    echo "$out" | tail -n 20 >&2
+    return 1
+  done
+}
+
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null; then
   missing=()
   for p in "${apt_packages[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
   if [ ${#missing[@]} -gt 0 ]; then
     echo "install: apt-get install ${missing[*]}"
     export DEBIAN_FRONTEND=noninteractive
-    apt-get update -qq
-    apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+    apt_get update -qq
+    apt_get install -y -qq --no-install-recommends "${missing[@]}"
+    echo "install: installed ${missing[*]}"
+  else
+    echo "install: system packages already there: ${apt_packages[*]}"
   fi
 else
   echo "install: not root; make sure these system packages are installed: ${apt_packages[*]}"
