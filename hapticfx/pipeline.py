@@ -34,6 +34,14 @@ class Delivery:
     limiter: LimiterReport
 
 
+def _limits(limits) -> dict:
+    """The effective limits, and the actuator's hard limits the limiter also enforces, as a mapping."""
+    out = {k: v for k, v in limits.__dict__.items() if k != "hard"}
+    if limits.hard is not None and limits.hard != limits:
+        out["hard"] = _limits(limits.hard)
+    return out
+
+
 def stand_in(device: str | int | None) -> tuple[type, str | None] | None:
     """The virtual actuator a ``--device`` value names (``wav:PATH``, ``memory``), if any."""
     if isinstance(device, str):
@@ -147,7 +155,7 @@ class Pipeline:
                 "type": self.effect.actuator.type, "output": self.actuator.describe(),
                 "plugin": f"{a.plugin} ({a.distribution} {a.version})", "rate_hz": spec.rate_hz,
                 "band_hz": list(spec.band_hz), "volts_peak": spec.volts_peak, "waveform": spec.waveform,
-                "gain": self.gain, "limits": self.limits.__dict__,
+                "gain": self.gain, "limits": _limits(self.limits),
             },
         }
 

@@ -119,10 +119,12 @@ def test_plugins_lists_builtins():
     assert ["model", "kinetic-energy", "hapticfx.builtins.core", "hapticfx"] == rows[[r[1] for r in rows].index("kinetic-energy")][:4]
 
 
-def test_info_says_what_it_loads(write_effect):
-    r = hfx("info", write_effect(KE % "memory"))
+def test_info_says_what_it_loads_readable_or_as_json(write_effect):
+    path = write_effect(KE % "memory")
+    r = hfx("info", path)
     assert r.returncode == 0, r.stderr
-    info = json.loads(r.stdout)
+    assert "model:\n  model: kinetic-energy" in r.stdout and "  rate hz: 48000" in r.stdout
+    info = json.loads(hfx("info", path, "--json").stdout)
     assert info["model"]["model"] == "kinetic-energy" and info["actuator"]["rate_hz"] == 48000.0
 
 

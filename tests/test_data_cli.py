@@ -48,13 +48,13 @@ def test_record_import_info_plot_pick_end_to_end(tmp_path, capsys):
     assert ds.bank("wood-beam", "max-min").velocities.tolist() == pytest.approx([np.sqrt(2 * 9.80665 * h) for h in (0.3, 0.6)])
 
     code, out, _ = run(capsys, "data", "info", ds_path)
-    assert code == 0 and "wood-beam" in out and "(medoid)" in out
+    assert code == 0 and "wood-beam" in out and "(by hand)" not in out
 
     code, out, err = run(capsys, "data", "pick", "wood-beam", ds.bank("wood-beam", "max-min").velocities[1], 1,
                          "--dataset", ds_path)
     assert code == 0, err
     code, out, _ = run(capsys, "data", "info", ds_path)
-    assert "drop 1 (manual)" in out
+    assert f"{ds.bank('wood-beam', 'max-min').velocities[1]:g} m/s #1 (by hand)" in out
 
     png = tmp_path / "fig.png"
     code, out, err = run(capsys, "data", "plot", "wood-beam", "--dataset", ds_path, "--out", png)

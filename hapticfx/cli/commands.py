@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import DeviceUnavailable, HapticfxError
+from .show import JSON_HELP, show
 
 VELOCITY_HELP = "Impact velocity in m/s (default: the effect's velocity_mps)."
 OBJECT_HELP = "Object id (default: the effect's object)."
@@ -133,12 +134,13 @@ def validate(files: list[Path] = typer.Argument(..., help="Effect files to check
 def info(
     effect: Path = typer.Argument(..., help="Effect file (YAML)."),
     device: Optional[str] = typer.Option(None, "--device", "-d", help="As for play."),
+    as_json: bool = typer.Option(False, "--json", help=JSON_HELP),
 ):
     """Show what an effect will load: plugins, dataset, interpolator, actuator spec and limits."""
     from ..pipeline import Pipeline
 
     pipeline = Pipeline.from_effect(effect, device=_device(device))
-    typer.echo(json.dumps(pipeline.describe(), indent=2, default=str))
+    show(pipeline.describe(), as_json=as_json)
 
 
 def plugins():

@@ -7,6 +7,8 @@ from typing import List, Optional
 
 import typer
 
+from ..cli.show import JSON_HELP
+
 from ..errors import DatasetError
 
 DEFAULT_DATASET = "builtin:helmet-drops"
@@ -87,29 +89,47 @@ def plot(
     typer.echo(str(plot_object(open_dataset(dataset), object, out, reducer=reducer, velocity=velocity)))
 
 
-def info(dataset: str = typer.Argument(DEFAULT_DATASET, help="Dataset path or builtin:NAME.")):
-    """Describe a dataset: rates, sensor, provenance, objects, velocities, drops, representatives."""
-    import json
+def info(
+    dataset: str = typer.Argument(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
+    as_json: bool = typer.Option(False, "--json", help=JSON_HELP),
+):
+    """Describe a dataset: what made it, rates, sensor, objects, velocities, drops, representatives.
 
+    The readable summary leaves out the simulator's and sensor's full parameters; --json has everything.
+    """
+    from ..cli.show import show
     from .dataset import open_dataset
 
     ds = open_dataset(dataset)
     m = ds.meta
-    typer.echo(f"{ds.name}: {ds.path}")
-    typer.echo(f"  raw rate {ds.raw_rate_hz:g} Hz; banks {ds.rate_hz:g} Hz x {ds.n_samples} samples; "
-               f"reducers: {', '.join(ds.reducers()) or 'none'}")
-    for key in ("sensor", "provenance", "preprocessing"):
-        if key in m:
-            typer.echo(f"  {key}: {json.dumps(m[key], sort_keys=True)}")
+    if as_json:
+        show({"name": ds.name, "path": str(ds.path), **m}, as_json=True)
+        return
+    prov = m.get("provenance", {})
+    simulated = "simul" in str(prov.get("generator", "")).lower() or "synth" in str(prov.get("command", ""))
+    objects = {}
     for obj in ds.objects:
         o = m["objects"][obj]
-        rep = o.get("representative", {})
         vs = o.get("velocities_mps", [])
-        typer.echo(f"  {obj}: {o.get('name', obj)}, {o['mass_kg']} kg, {len(vs)} velocities x {o.get('n_drops', '?')} drops")
-        manual = {round(x["velocity_mps"], 6): x["drop"] for x in rep.get("overrides", [])}
-        for v, c in zip(vs, rep.get("chosen", [])):
-            how = "manual" if round(v, 6) in manual else "medoid"
-            typer.echo(f"    {v:.3f} m/s: drop {c} ({how})")
+        rep = o.get("representative", {})
+        manual = {round(x["velocity_mps"], 6) for x in rep.get("overrides", [])}
+        objects[obj] = {
+            "name": o.get("name", obj), "mass kg": o["mass_kg"],
+            "drops": f"{len(vs)} velocities ({min(vs):g}-{max(vs):g} m/s) x {o.get('n_drops', '?')} drops" if vs else "none",
+            "representative drop per velocity (medoid unless chosen by hand)": [
+                f"{v:g} m/s #{c}" + (" (by hand)" if round(v, 6) in manual else "")
+                for v, c in zip(vs, rep.get("chosen", []))],
+        }
+    show({
+        "dataset": ds.name, "path": str(ds.path),
+        "what": ("SIMULATED by the drop-rig simulator, not measured" if simulated
+                 else "recorded or imported impacts"),
+        "made by": prov.get("command", "-"),
+        "raw rate": f"{ds.raw_rate_hz:g} Hz", "banks": f"{ds.rate_hz:g} Hz x {ds.n_samples} samples",
+        "reducers": ds.reducers() or ["none"],
+        "sensor": m.get("sensor", {}).get("model", "-"),
+        "objects": objects,
+    }, as_json=False)
 
 
 def pick(
