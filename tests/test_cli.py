@@ -136,3 +136,20 @@ def test_help_explains_devices():
 def test_usage_error_is_clean_exit_2():
     r = hfx("play", "--bogus")
     assert r.returncode == 2 and "No such option: --bogus" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_version_names_hapticfx_and_its_plugins():
+    r = hfx("--version")
+    assert r.returncode == 0 and r.stdout.startswith("hapticfx 0.1.0") and "hapticfx-soundcard" in r.stdout
+
+
+def test_help_lists_the_common_commands_first_and_completion_works():
+    import os
+    import subprocess
+    import sys
+
+    listed = [line.split()[0] for line in hfx("--help").stdout.split("Commands:")[1].splitlines() if line.strip()]
+    assert listed[:5] == ["play", "render", "validate", "info", "serve"]
+    done = subprocess.run([sys.executable, "-m", "hapticfx"], capture_output=True, text=True, env={
+        **os.environ, "COMP_WORDS": "hapticfx pl", "COMP_CWORD": "1", "_HAPTICFX_COMPLETE": "complete_bash"})
+    assert done.stdout.split() == ["play", "plugins"]

@@ -22,7 +22,7 @@ def build_app() -> typer.Typer:
     """The root app with the ``bench`` and ``data`` groups, filled by every plugin's hook."""
     from ..registry import get_registry
 
-    app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+    app = typer.Typer(help=HELP, no_args_is_help=True, add_completion=True, pretty_exceptions_enable=False,
                       rich_markup_mode=None)
     bench = typer.Typer(help="Measure speed and accuracy; prints tables (median, spread, ratios).",
                         no_args_is_help=True)
@@ -31,11 +31,37 @@ def build_app() -> typer.Typer:
     app.add_typer(data, name="data")
 
     @app.callback()
-    def root(debug: bool = typer.Option(False, "--debug", help="Show the traceback of errors.")):
+    def root(
+        debug: bool = typer.Option(False, "--debug", help="Show the traceback of errors."),
+        version: bool = typer.Option(False, "--version", is_eager=True, callback=_version,
+                                     help="Print the versions of hapticfx and its installed plugins, and exit."),
+    ):
         """hapticfx."""
 
     get_registry().pm.hook.register_commands(app=app, bench=bench, data=data)
+    app.registered_commands.sort(key=_rank)  # plugins register in any order; --help lists the common first
     return app
+
+
+# Commands in the order `hapticfx --help` lists them: most used first; others (a plugin's) after these.
+COMMAND_ORDER = ("play", "render", "validate", "info", "serve", "devices", "plugins", "train", "table", "schema")
+
+
+def _rank(command) -> int:
+    name = command.name or command.callback.__name__.replace("_", "-")
+    return COMMAND_ORDER.index(name) if name in COMMAND_ORDER else len(COMMAND_ORDER)
+
+
+def _version(value: bool) -> None:
+    if not value:
+        return
+    from .. import __version__
+    from ..registry import get_registry
+
+    dists = sorted({(p.distribution, p.version) for p in get_registry().plugins.values()
+                    if p.distribution and p.distribution != "hapticfx"})
+    typer.echo(f"hapticfx {__version__}" + (f" (plugins: {', '.join(f'{d} {v}' for d, v in dists)})" if dists else ""))
+    raise typer.Exit()
 
 
 def _click_errors() -> tuple[type, ...]:
