@@ -14,7 +14,7 @@ def test_startup_table_names_floors_baseline_and_heavy_imports(tmp_path):
     torchy.write_text((REPO / "effects" / "falling_brick_convbilstm.yaml").read_text().replace(
         "interpolator: convbilstm", "interpolator: convbilstm\n  interpolator_options: {cache: false}"))
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "startup", "effects/falling_brick.yaml",
-                        str(torchy), "--runs", "3"], cwd=REPO, capture_output=True, text=True, timeout=600)
+                        str(torchy), "--repeats", "3"], cwd=REPO, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
             for line in r.stdout.splitlines() if line.startswith("| ") and "median ms" not in line}
@@ -25,14 +25,14 @@ def test_startup_table_names_floors_baseline_and_heavy_imports(tmp_path):
 
 
 def test_missing_effects_are_named():
-    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "startup", "nope.yaml", "--runs", "3"],
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "startup", "nope.yaml", "--repeats", "3"],
                        cwd=REPO, capture_output=True, text=True)
     assert r.returncode == 2 and "effect file(s) not found: nope.yaml" in r.stderr
 
 
 def test_bench_render_times_each_stage_with_the_effects_own_actuator():
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "render", "effects/falling_brick.yaml",
-                        "effects/families/tapping.yaml", "--repeat", "5"], cwd=REPO, capture_output=True, text=True,
+                        "effects/families/tapping.yaml", "--repeats", "5"], cwd=REPO, capture_output=True, text=True,
                        timeout=600)
     assert r.returncode == 0, r.stderr
     assert "| effects/falling_brick.yaml" in r.stdout and "vibro-transducer 48000 Hz" in r.stdout

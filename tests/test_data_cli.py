@@ -63,7 +63,7 @@ def test_record_import_info_plot_pick_end_to_end(tmp_path, capsys):
 
 
 def test_bench_reducers_prints_table4_and_timings(dataset, capsys):
-    code, out, err = run(capsys, "bench", "reducers", "--dataset", dataset, "--repeat", 3, "--number", 5,
+    code, out, err = run(capsys, "bench", "reducers", "--dataset", dataset, "--repeats", 3, "--number", 5,
                          "--samples", 20000)
     assert code == 0, err
     table = out.split("\n\n")[0]
@@ -101,6 +101,6 @@ def test_builtin_dataset_banks_agree_with_its_raw_drops(capsys):
     picked = w[np.arange(len(v)), chosen]
     np.testing.assert_allclose(ds.bank(obj, "max-min").profiles, max_min(picked), atol=1e-6)
     np.testing.assert_allclose(ds.bank(obj, "dft321").profiles, dft321(picked), atol=1e-6)
-    code, out, err = run(capsys, "bench", "reducers", "--repeat", 2, "--number", 2, "--samples", 5000)
+    code, out, err = run(capsys, "bench", "reducers", "--repeats", 2, "--number", 2, "--samples", 5000)
     assert code == 0, err
     assert "helmet-drops" in out.splitlines()[0]

@@ -303,8 +303,8 @@ def register_commands(app, bench):
 
     @bench.command("scene")
     def bench_scene_cmd(
-        runs: int = typer.Option(5, min=1, help="Fresh processes per scene."),
+        repeats: int = typer.Option(5, "--repeats", min=1, help="Fresh processes per scene."),
         neural_weights: Path = typer.Option(None, help="convbilstm checkpoint directory (default: the shipped weights)."),
     ):
         """Start-up time and peak memory of a physics-only scene against data-driven and neural ones."""
-        typer.echo(bench_scene(runs=runs, neural_weights=neural_weights, echo=lambda line: typer.echo(line, err=True)))
+        typer.echo(bench_scene(runs=repeats, neural_weights=neural_weights, echo=lambda line: typer.echo(line, err=True)))

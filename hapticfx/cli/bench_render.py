@@ -39,7 +39,7 @@ def _time_stages(pipeline, velocity: float) -> tuple[float, float, float, float]
 def render(
     effects: Optional[list[Path]] = typer.Argument(None, help="Effect files (default: the falling brick with every "
                                                   "shipped model, and the tapping family on the contact model)."),
-    repeat: int = typer.Option(200, "--repeat", min=5, help="Timed renders per effect."),
+    repeats: int = typer.Option(200, "--repeats", min=5, help="Timed renders per effect."),
     direct: bool = typer.Option(True, "--direct/--no-direct", help="Also time the ConvBiLSTM by direct inference "
                                 "(needs torch)."),
 ):
@@ -67,7 +67,7 @@ def render(
             typer.echo(f"skipped direct ConvBiLSTM inference: {exc}", err=True)
     # A fresh velocity for every render (no per-velocity cache can answer it); effects take turns, so a change
     # in machine load falls on all of them alike.
-    velocities = np.random.default_rng(0).uniform(2.45, 5.2, size=repeat + 5)
+    velocities = np.random.default_rng(0).uniform(2.45, 5.2, size=repeats + 5)
     times: dict[str, list[tuple]] = {label: [] for label in pipelines}
     for i, v in enumerate(velocities):
         for label, pipeline in pipelines.items():
@@ -82,7 +82,7 @@ def render(
         base = base or cols[3].median
         rows.append([label, f"{pipeline.plan.effect.actuator.type} {spec.rate_hz:g} Hz"]
                     + [f"{ms(c.median)} / {ms(c.p99)}" for c in cols] + [f"{cols[3].median / base:.2f}"])
-    typer.echo(f"render latency per impact, {repeat} renders per effect, interleaved; velocities uniform over "
+    typer.echo(f"render latency per impact, {repeats} renders per effect, interleaved; velocities uniform over "
                "[0.64, 1.37] x each effect's own (a new one each render); median / p99 in ms")
     typer.echo(table(["effect", "actuator", *STAGES, "x first"], rows))
 

@@ -50,7 +50,7 @@ def startup(
                                                   "ensemble, ConvBiLSTM, linear and kinetic-energy effects)."),
     baseline: Path = typer.Option(Path("effects/falling_brick_linear.yaml"), "--baseline",
                                   help="The effect every ratio is taken against (measured in the same run)."),
-    runs: int = typer.Option(9, "--runs", min=3, help="Fresh processes per effect, taken in turns."),
+    repeats: int = typer.Option(9, "--repeats", min=3, help="Fresh processes per effect, taken in turns."),
 ):
     """Cold start: wall time of `hapticfx play EFFECT --device wav:FILE` in a fresh process, from the interpreter's
     start to the WAV on disk, against floors (python alone, `import hapticfx`) and a baseline
@@ -70,7 +70,7 @@ def startup(
         for args in cases.values():  # warm-up: compiled modules cached, files in the page cache
             if args is not None:
                 _run(args)
-        for i in range(runs):  # in turns, so that a change in machine load falls on every case alike
+        for i in range(repeats):  # in turns, so that a change in machine load falls on every case alike
             for label, args in cases.items():
                 if args is None:
                     code = "pass" if label.endswith("pass") else "import hapticfx"
@@ -81,7 +81,7 @@ def startup(
                 wall, heavy = _run(args)
                 walls[label].append(wall)
                 imported[label].update(heavy)
-            typer.echo(f"run {i + 1}/{runs}", err=True)
+            typer.echo(f"run {i + 1}/{repeats}", err=True)
     base = Timing(tuple(walls[f"play {baseline}"])).median
     rows = []
     for label, samples in walls.items():
@@ -89,7 +89,7 @@ def startup(
         rows.append([label, ms(t.median), ms(float(np.min(samples))), ms(t.iqr), f"{t.median / base:.2f}",
                      ", ".join(sorted(imported[label])) or "-"])
     typer.echo(f"fresh process (`{Path(sys.executable).name} -m hapticfx ...`, compiled modules cached after a "
-               f"warm-up run), {runs} runs each, in turns; ratio against `play {baseline}`")
+               f"warm-up run), {repeats} runs each, in turns; ratio against `play {baseline}`")
     typer.echo(table(["what", "median ms", "min ms", "IQR ms", "x baseline", "heavy modules imported"], rows))
 
 

@@ -161,7 +161,7 @@ def tables(dataset: str = typer.Argument(..., help="Dataset directory (its table
 
 def bench_reducers(
     dataset: str = typer.Option(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
-    repeat: int = typer.Option(30, help="Timed repetitions (median and IQR are over these)."),
+    repeats: int = typer.Option(30, "--repeats", help="Timed repetitions (median and IQR are over these)."),
     number: int = typer.Option(200, help="Calls per repetition for the single-signal time."),
     samples: int = typer.Option(1_000_000, help="3-axis samples in the large-batch timing."),
 ):
@@ -189,9 +189,9 @@ def bench_reducers(
     _, windows = ds.windows(ds.objects[0])
     signal = windows[0, 0]
     _echo(f"timing {', '.join(reducers)}")
-    t = time_reducers(reducers, signal, n_big=samples, repeat=repeat, number=number)
+    t = time_reducers(reducers, signal, n_big=samples, repeat=repeats, number=number)
     n_big = (samples // signal.shape[0]) * signal.shape[0]
-    typer.echo(f"\ntime per reduction ({repeat} repetitions, reducers alternated; one signal: mean of {number} calls per "
+    typer.echo(f"\ntime per reduction ({repeats} repetitions, reducers alternated; one signal: mean of {number} calls per "
                f"repetition; batch: {n_big} 3-axis samples as {n_big // signal.shape[0]} x {signal.shape[0]} x 3)")
     rows = []
     for what, label, unit, scale in (("one", f"one {signal.shape[0]}x3 signal", "us", 1e6), ("big", f"{n_big} samples", "ms", 1e3)):

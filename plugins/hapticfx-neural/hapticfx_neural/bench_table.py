@@ -24,7 +24,7 @@ def bench_table(
                                            "ConvBiLSTM for builtin:helmet-drops)."),
     dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="The dataset the table covers."),
     velocities: int = typer.Option(10_000, "--velocities", min=10, help="Random velocities compared."),
-    repeat: int = typer.Option(50, "--repeat", min=5, help="Timed lookups and inferences."),
+    repeats: int = typer.Option(50, "--repeats", min=5, help="Timed lookups and inferences."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random velocities."),
 ):
     """Velocity table against direct inference: largest difference, jumps at recorded velocities, run time."""
@@ -79,8 +79,8 @@ def bench_table(
     obj = next(iter(banks))
     lo, hi = banks[obj].neighbours(float(np.mean(banks[obj].velocities[:2])))
     v = 0.5 * (lo.velocity + hi.velocity)
-    t_table = measure(lambda: tabled.interpolate(lo, hi, v), repeat=max(repeat, 200))
-    t_direct = measure(lambda: direct.interpolate(lo, hi, v), repeat=repeat)
+    t_table = measure(lambda: tabled.interpolate(lo, hi, v), repeat=max(repeats, 200))
+    t_direct = measure(lambda: direct.interpolate(lo, hi, v), repeat=repeats)
     t0 = time.perf_counter()
     VelocityTable.load(checkpoint.table_path(meta_path))
     load_table = time.perf_counter() - t0

@@ -68,7 +68,7 @@ def busy_processes(n: int):
 
 def threads(
     counts: str = typer.Option("1,2", "--counts", help="Comma-separated torch thread counts to compare."),
-    repeat: int = typer.Option(50, "--repeat", min=5, help="Timed inferences per thread count (batch 1)."),
+    repeats: int = typer.Option(50, "--repeats", min=5, help="Timed inferences per thread count (batch 1)."),
     epochs: int = typer.Option(3, "--epochs", min=0, help="Timed training epochs per thread count (0: skip)."),
     config: Path = typer.Option(SHIPPED_CONFIG, "--config", help="Training configuration (default: the shipped "
                                 "ConvBiLSTM's)."),
@@ -96,7 +96,7 @@ def threads(
     typer.echo(f"torch {torch.__version__}, {torch.get_num_threads()} threads by default on this machine; "
                f"comparing {ns} with {busy} other busy process(es)")
     with busy_processes(busy):
-        results = _measure(cfg, dataset, data, ns, repeat, epochs)
+        results = _measure(cfg, dataset, data, ns, repeats, epochs)
     rows = [[what, n, ms(t[n].median), ms(t[n].p99), ms(t[n].iqr), f"{t[n].median / t[ns[0]].median:.2f}"]
             for what, t in results for n in ns]
     typer.echo(table(["what", "threads", "median ms", "p99 ms", "IQR ms", f"x {ns[0]} thread(s)"], rows))

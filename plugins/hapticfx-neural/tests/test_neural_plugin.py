@@ -146,7 +146,7 @@ def test_the_shipped_table_equals_direct_inference():
 
 def test_bench_table_compares_a_trained_table_with_its_network(trained, syn_dataset):
     r = _cli("bench", "table", "--weights", str(trained.parent), "--dataset", str(syn_dataset), "--velocities", "40",
-             "--repeat", "5")
+             "--repeats", "5")
     assert r.returncode == 0, r.stderr
     rows = {line.split("|")[1].strip(): line.split("|")[2].strip() for line in r.stdout.splitlines()
             if line.startswith("| ") and "value" not in line}
