@@ -22,6 +22,16 @@ from .errors import PluginError
 
 KINDS = ("reducer", "interpolator", "model", "actuator")
 ALLOW_ENV = "HAPTICFX_PLUGINS"
+
+# What the project's own plugin distributions register, to name the one to install when a name is
+# missing (tests/test_hooks.py checks this against what the installed plugins really register).
+FIRST_PARTY = {
+    ("actuator", "vibro-transducer"): "hapticfx-soundcard",
+    ("actuator", "haptuator"): "hapticfx-soundcard",
+    ("actuator", "solenoid"): "hapticfx-solenoid",
+    **{("interpolator", n): "hapticfx-neural"
+       for n in ("convbilstm", "lstm", "bilstm", "lstm-sae", "bilstm-ed", "convlstm-ed")},
+}
 BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data", "hapticfx.builtins.physics", "hapticfx.builtins.scene",
                    "hapticfx.builtins.study")
 ENTRY_POINT_GROUP = "hapticfx"
@@ -156,8 +166,12 @@ class Registry:
         try:
             return self._items[(kind, name)]
         except KeyError:
+            where = ""
+            dist = FIRST_PARTY.get((kind, name))
+            if dist:
+                where = f"; it comes with {dist} (pip install {dist}; from the source tree: plugins/{dist})"
             raise PluginError(
-                f"unknown {kind} {name!r}; installed: {', '.join(self.names(kind)) or 'none'}"
+                f"unknown {kind} {name!r}{where}; installed: {', '.join(self.names(kind)) or 'none'}"
             ) from None
 
     def create(self, kind: str, name: str, /, **kwargs) -> Any:

@@ -224,3 +224,22 @@ def test_hookspecs_are_grouped_and_typed():
     for name in hook_names():
         sig = inspect.signature(getattr(hookspecs, name))
         assert all(p.annotation is not inspect.Parameter.empty for p in sig.parameters.values()), name
+
+
+def test_first_party_names_are_what_their_distributions_register():
+    from hapticfx.registry import FIRST_PARTY, get_registry
+
+    registered = {(r.kind, r.name): r.distribution for r in get_registry() if r.distribution != "hapticfx"}
+    assert {k: v for k, v in registered.items() if v in set(FIRST_PARTY.values())} == FIRST_PARTY
+
+
+def test_a_missing_plugin_names_the_distribution_to_install(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    effect = tmp_path / "e.yaml"
+    effect.write_text("name: e\nobject: concrete-brick\nmodel: {type: kinetic-energy}\nactuator: {type: vibro-transducer}\n")
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "render", str(effect), "--out", str(tmp_path / "x.wav")],
+                       capture_output=True, text=True, env={**os.environ, "HAPTICFX_PLUGINS": ""})
+    assert r.returncode == 2 and "pip install hapticfx-soundcard" in r.stderr and len(r.stderr.splitlines()) == 1
