@@ -53,3 +53,21 @@ def builtin_object(object_id: str, *, source: str | None = None, key: str = "obj
             source=source,
             key=key,
         ) from None
+
+
+def known_object(context, object_id: str) -> ObjectInfo:
+    """The object an impact names, for a model built for ``context``'s effect: the effect's own object
+    (also when ``object_id`` is empty) or a built-in one; an :class:`EffectError` for any other, whose
+    mass the model cannot know."""
+    own = context.object_info
+    if not object_id or (own is not None and object_id == own.id):
+        if own is None:
+            raise EffectError("the effect describes no object", source=context.source, key="object")
+        return own
+    if object_id in PAPER_OBJECTS:
+        return PAPER_OBJECTS[object_id]
+    raise EffectError(
+        f"object {object_id!r} is neither the effect's object ({own.id if own else 'none'}) nor a built-in one "
+        f"({', '.join(PAPER_OBJECTS)}): its mass is unknown; describe it in an effect, or set model.mass_kg",
+        source=context.source, key="object",
+    )

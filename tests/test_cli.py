@@ -153,3 +153,9 @@ def test_help_lists_the_common_commands_first_and_completion_works():
     done = subprocess.run([sys.executable, "-m", "hapticfx"], capture_output=True, text=True, env={
         **os.environ, "COMP_WORDS": "hapticfx pl", "COMP_CWORD": "1", "_HAPTICFX_COMPLETE": "complete_bash"})
     assert done.stdout.split() == ["play", "plugins"]
+
+
+def test_an_object_the_effect_does_not_describe_is_an_error(tmp_path):
+    r = hfx("render", REPO / "effects" / "falling_brick_kinetic.yaml", "--object", "banana", "--out", tmp_path / "a.png")
+    assert r.returncode == 2 and "object 'banana' is neither the effect's object (concrete-brick)" in r.stderr
+    assert not (tmp_path / "a.png").exists()

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import EffectError
 from ..interfaces import Impact, Model
-from ..objects import PAPER_OBJECTS, ObjectInfo
+from ..objects import PAPER_OBJECTS, ObjectInfo, known_object
 from ..params import BuildContext, doc
 from ..signal import Signal
 
@@ -83,12 +83,12 @@ class ContactModel(Model):
         self._lock = threading.Lock()
 
     def object_for(self, object_id: str) -> ObjectInfo:
-        info = self.context.object_info
-        if object_id and (info is None or object_id != info.id) and object_id in PAPER_OBJECTS:
-            info = PAPER_OBJECTS[object_id]
-        if info is None:
-            info = ObjectInfo(object_id or "object", object_id or "object", self.params.mass_kg)
         p = self.params
+        if self.context.object_info is None or (p.mass_kg is not None and object_id not in PAPER_OBJECTS
+                                                and object_id != self.context.object_info.id):
+            info = ObjectInfo(object_id or "object", object_id or "object", p.mass_kg)
+        else:
+            info = known_object(self.context, object_id)
         return replace(info, mass_kg=p.mass_kg if p.mass_kg is not None else info.mass_kg,
                        material=p.material or info.material)
 

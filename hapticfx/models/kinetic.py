@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import EffectError
 from ..interfaces import Impact, Model
-from ..objects import PAPER_OBJECTS
+from ..objects import known_object
 from ..params import BuildContext, doc
 from ..signal import Signal
 
@@ -51,10 +51,7 @@ class KineticEnergyModel(Model):
     def mass_for(self, object_id: str) -> float:
         if self.params.mass_kg is not None:
             return self.params.mass_kg
-        info = self.context.object_info
-        if object_id and info is not None and object_id != info.id and object_id in PAPER_OBJECTS:
-            info = PAPER_OBJECTS[object_id]
-        return info.mass_kg
+        return known_object(self.context, object_id).mass_kg
 
     def amplitude(self, velocity: float, mass_kg: float) -> float:
         """Eqs. 9-10, clipped to [0, 1]."""
