@@ -272,6 +272,8 @@ class Engine:
             signal = signal.with_samples(out.limiter.process(signal.samples, at_s=now))
             limited = limited or out.limiter.report().total > before
         out.actuator.play(signal)
+        for note in delivery.notes:
+            self._log.event(("note", job.object), f"{job.object}: {note}")
         playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,
                             job.received, started, time.perf_counter(), delivery, signal)
         with self._lock:

@@ -113,6 +113,10 @@ class Model(abc.ABC):
         """What this model loaded (for ``hapticfx info``)."""
         return {"model": self.name}
 
+    def notes(self, impact: Impact) -> list[str]:
+        """What a user should know about how this impact was rendered (an extrapolation, say); none by default."""
+        return []
+
 
 _LIMIT_RANGES = {  # field: (smallest, largest, may be None); every limit is stricter when smaller
     "peak": (0.0, 1.0, False), "rms": (0.0, 1.0, False), "rms_window_s": (1e-4, 60.0, False),

@@ -26,12 +26,14 @@ from .signal import Signal, valid_velocity
 
 @dataclass(frozen=True)
 class Delivery:
-    """One rendered impact: the model's profile, what went to the actuator, and the limiter's account."""
+    """One rendered impact: the model's profile, what went to the actuator, the limiter's account, and what
+    the model says a user should know about it (``notes``: an extrapolation, say)."""
 
     impact: Impact
     profile: Signal
     output: Signal
     limiter: LimiterReport
+    notes: tuple[str, ...] = ()
 
 
 def _limits(limits) -> dict:
@@ -132,7 +134,7 @@ class Pipeline:
         with self._lock:
             out = self.limiter.process(shaped.samples, at_s=impact.time_s)
             report = self.limiter.report()
-        return Delivery(impact, profile, shaped.with_samples(out), report)
+        return Delivery(impact, profile, shaped.with_samples(out), report, tuple(self.model.notes(impact)))
 
     def impact(self, *, velocity: float | None = None, object: str | None = None) -> Delivery:
         """Render one impact and play it; returns what was sent to the actuator."""

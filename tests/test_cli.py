@@ -155,6 +155,15 @@ def test_help_lists_the_common_commands_first_and_completion_works():
     assert done.stdout.split() == ["play", "plugins"]
 
 
+def test_a_velocity_outside_the_recorded_range_is_warned_about(tmp_path):
+    effect = REPO / "effects" / "falling_brick.yaml"
+    outside = hfx("render", effect, "--velocity", "9", "--out", tmp_path / "a.png")
+    inside = hfx("render", effect, "--velocity", "4", "--out", tmp_path / "b.png")
+    assert outside.returncode == inside.returncode == 0
+    assert outside.stderr.startswith("hapticfx: warning: 9 m/s is outside the recorded 2.42-5.24 m/s of concrete-brick")
+    assert inside.stderr == ""
+
+
 def test_an_object_the_effect_does_not_describe_is_an_error(tmp_path):
     r = hfx("render", REPO / "effects" / "falling_brick_kinetic.yaml", "--object", "banana", "--out", tmp_path / "a.png")
     assert r.returncode == 2 and "object 'banana' is neither the effect's object (concrete-brick)" in r.stderr

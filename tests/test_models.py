@@ -87,6 +87,13 @@ def test_outside_range_policies(write_effect, tiny_dataset, v):
     assert np.array_equal(clamped, prof[edge])
     with pytest.raises(SignalError, match="outside the recorded range"):
         dd_pipeline(write_effect, tiny_dataset, outside="refuse").model.render(Impact("concrete-brick", v))
+    note, = dd_pipeline(write_effect, tiny_dataset).render(velocity=v).notes
+    assert f"{v:g} m/s is outside the recorded" in note and "scaled by velocity" in note
+
+
+@pytest.mark.parametrize("v", [VELOCITIES[0], (VELOCITIES[0] + VELOCITIES[1]) / 2, VELOCITIES[-1]])
+def test_no_note_at_or_between_recorded_velocities(write_effect, tiny_dataset, v):
+    assert dd_pipeline(write_effect, tiny_dataset).render(velocity=v).notes == ()
 
 
 def test_whole_pipeline_output_bounded_for_any_velocity(write_effect, tiny_dataset):

@@ -44,6 +44,11 @@ def _write_outputs(pipeline, delivery, out: Path, *, force: bool) -> list[Path]:
     raise HapticfxError(f"{out}: unknown output type {suffix!r}; use .wav, .csv or .png")
 
 
+def _warn(delivery) -> None:
+    for note in delivery.notes:
+        typer.echo(f"hapticfx: warning: {note}", err=True)
+
+
 def _summary(pipeline, delivery, destination: str) -> str:
     imp, out = delivery.impact, delivery.output
     return (f"{pipeline.effect.name}: {imp.object} at {imp.velocity:.2f} m/s -> {destination}; "
@@ -84,6 +89,7 @@ def play(
         stem = f"hapticfx-{pipeline.effect.name}-{(velocity if velocity is not None else pipeline.effect.velocity_mps):.2f}mps"
         wav, png = Path(f"{stem}.wav"), Path(f"{stem}.png")
         delivery = pipeline.render(velocity=velocity, object=object)
+        _warn(delivery)
         _write_outputs(pipeline, delivery, wav, force=force)
         _write_outputs(pipeline, delivery, png, force=force)
         typer.echo(f"no output device ({exc}); wrote the impact to {wav} and {png} instead "
@@ -91,6 +97,7 @@ def play(
         return
     try:
         delivery = pipeline.impact(velocity=velocity, object=object)
+        _warn(delivery)
         pipeline.actuator.wait(timeout=delivery.output.duration_s + 2.0)
     finally:
         pipeline.close()
@@ -109,6 +116,7 @@ def render(
 
     pipeline = Pipeline.from_effect(effect, device="memory")
     delivery = pipeline.render(velocity=velocity, object=object)
+    _warn(delivery)
     written = _write_outputs(pipeline, delivery, out, force=force)
     typer.echo(_summary(pipeline, delivery, ", ".join(map(str, written))))
 

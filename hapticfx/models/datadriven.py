@@ -107,6 +107,17 @@ class DataDrivenModel(Model):
         object_id = impact.object or self.context.object_id
         return Signal(self.profile(object_id, impact.velocity), self.dataset.rate_hz)
 
+    def notes(self, impact: Impact) -> list[str]:
+        object_id = impact.object or self.context.object_id
+        bank = self.bank(object_id)
+        lo, hi = float(bank.velocities[0]), float(bank.velocities[-1])
+        if lo <= impact.velocity <= hi or self.params.outside == "refuse":
+            return []
+        how = "scaled by velocity" if self.params.outside == "scale" else "as it is"
+        edge = lo if impact.velocity < lo else hi
+        return [f"{impact.velocity:g} m/s is outside the recorded {lo:g}-{hi:g} m/s of {object_id}: "
+                f"the {edge:g} m/s profile is played {how} (model.outside: {self.params.outside})"]
+
     def describe(self) -> dict:
         return {
             "model": self.name, "dataset": str(self.dataset.path), "reducer": self.params.reducer,
