@@ -250,6 +250,8 @@ def bench_scene(*, runs: int, echo, neural_weights: Path | None = None) -> str:
 def register_commands(app, bench):
     import typer
 
+    from ..progress import say
+
     @app.command("serve")
     def serve(
         scene: Path = typer.Argument(..., help="Scene file (YAML)."),
@@ -277,7 +279,7 @@ def register_commands(app, bench):
     ):
         """Latency from `serve` receiving an impact to its samples reaching the actuator (median, p99)."""
         typer.echo(bench_serve(impacts=impacts, interval_s=interval_ms / 1e3, scene_path=scene,
-                               echo=lambda line: typer.echo(line, err=True)))
+                               echo=say))
 
     @bench.command("flood")
     def bench_flood_cmd(
@@ -289,7 +291,7 @@ def register_commands(app, bench):
         """`hapticfx serve` under a sustained OSC flood: resident memory over time, and every impact accounted for."""
         from .flood import accounting, run
 
-        r = run(scene, seconds=seconds, rate=rate, device=device, echo=lambda line: typer.echo(line, err=True))
+        r = run(scene, seconds=seconds, rate=rate, device=device, echo=say)
         where = f"--device {device}" if device else "the scene's own actuators"
         typer.echo(f"{r['sent']} impacts in {seconds:g} s ({rate:g}/s) to `hapticfx serve {scene}` ({where})\n")
         typer.echo("| resident memory (MiB) | start | max | end | end - start |\n|---|---:|---:|---:|---:|")
@@ -307,4 +309,4 @@ def register_commands(app, bench):
         neural_weights: Path = typer.Option(None, help="convbilstm checkpoint directory (default: the shipped weights)."),
     ):
         """Start-up time and peak memory of a physics-only scene against data-driven and neural ones."""
-        typer.echo(bench_scene(runs=repeats, neural_weights=neural_weights, echo=lambda line: typer.echo(line, err=True)))
+        typer.echo(bench_scene(runs=repeats, neural_weights=neural_weights, echo=say))

@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import HapticfxError
+from ..progress import Progress
 from ..timing import table
 
 
@@ -45,8 +46,9 @@ def fuzz(
             if r.worst:
                 examples.append(f"limits: {r.worst}")
             continue
-        say = (lambda n, _name=name: typer.echo(f"{_name}: {n}/{inputs}", err=True))
-        r = fuzz_gate(available[name], inputs, seed=seed, time_limit_s=time_limit, progress=say)
+        with Progress(inputs, name, unit="inputs") as bar:
+            r = fuzz_gate(available[name], inputs, seed=seed, time_limit_s=time_limit,
+                          progress=lambda step: bar.update(step))
         rows.append([name, r.inputs, r.accepted, r.refused, r.bad_messages, r.tracebacks, r.hangs,
                      f"longest message {r.longest_message}, slowest {r.slowest_s * 1e3:.0f} ms",
                      f"{time.perf_counter() - t0:.0f}", f"{peak_rss_mb():.0f}"])

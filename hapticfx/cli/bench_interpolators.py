@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import EffectError
+from ..progress import say
 
 
 def interpolators(
@@ -44,7 +45,7 @@ def interpolators(
     ds = open_dataset(dataset)
     if reducer not in ds.reducers():
         raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
-    echo = lambda message: typer.echo(message, err=True)  # noqa: E731  progress on stderr, tables on stdout
+    echo = say  # progress on stderr, tables on stdout
     echo(f"dataset {ds.name} ({reducer}), protocol {protocol}, methods {', '.join(r.row for r in rows)}")
     results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, echo=echo)
     summary = summarise(results, seed=seed)

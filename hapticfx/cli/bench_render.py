@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from ..errors import HapticfxError
+from ..progress import Progress
 from ..timing import Timing, ms, table
 
 # The falling brick in every model the project ships, and a contact-model family.
@@ -69,11 +70,13 @@ def render(
     # in machine load falls on all of them alike.
     velocities = np.random.default_rng(0).uniform(2.45, 5.2, size=repeats + 5)
     times: dict[str, list[tuple]] = {label: [] for label in pipelines}
-    for i, v in enumerate(velocities):
-        for label, pipeline in pipelines.items():
-            stages = _time_stages(pipeline, float(v) * pipeline.effect.velocity_mps / 3.8)
-            if i >= 5:  # the first five are warm-up
-                times[label].append(stages)
+    with Progress(len(velocities), "render", unit="rounds (5 warm-up)") as bar:
+        for i, v in enumerate(velocities):
+            for label, pipeline in pipelines.items():
+                stages = _time_stages(pipeline, float(v) * pipeline.effect.velocity_mps / 3.8)
+                if i >= 5:  # the first five are warm-up
+                    times[label].append(stages)
+            bar.update()
     rows, base = [], None
     for label, samples in times.items():
         pipeline = pipelines[label]

@@ -8,8 +8,8 @@ from typing import List, Optional
 import typer
 
 from ..cli.show import JSON_HELP
-
 from ..errors import DatasetError
+from ..progress import say
 
 DEFAULT_DATASET = "builtin:helmet-drops"
 
@@ -24,8 +24,6 @@ def _pairs(items: list[str], option: str) -> dict[str, str]:
     return out
 
 
-def _echo(message: str) -> None:
-    typer.echo(message, err=True)
 
 
 def import_(
@@ -49,7 +47,7 @@ def import_(
         except ValueError:
             raise DatasetError(f"--mass {k}={v}: the mass must be a number in kg") from None
     path = import_csv(files, out, name=name, sensor=_pairs(sensor, "--sensor") or None, masses=masses,
-                      overwrite=force, progress=_echo)
+                      overwrite=force, progress=say)
     typer.echo(str(path))
 
 
@@ -70,7 +68,7 @@ def record(
 
     files = record_drops(port, object_id=object, height_m=height_m, drops=drops, out_dir=out_dir,
                          threshold_g=threshold_g, pre_trigger=pre_trigger, n_samples=samples,
-                         timeout_s=timeout_s, baud=baud, progress=_echo)
+                         timeout_s=timeout_s, baud=baud, progress=say)
     for f in files:
         typer.echo(str(f))
 
@@ -144,7 +142,7 @@ def pick(
 
     if (drop is None) != auto:
         raise DatasetError("give either a DROP index or --auto")
-    typer.echo(str(set_representative(Path(dataset), object, velocity, drop, progress=_echo)))
+    typer.echo(str(set_representative(Path(dataset), object, velocity, drop, progress=say)))
 
 
 def tables(dataset: str = typer.Argument(..., help="Dataset directory (its tables/ folder is rewritten).")):
@@ -156,7 +154,7 @@ def tables(dataset: str = typer.Argument(..., help="Dataset directory (its table
     from ..interpolators.ensemble import write_tables
     from .dataset import open_dataset
 
-    write_tables(open_dataset(dataset), progress=_echo)
+    write_tables(open_dataset(dataset), progress=say)
 
 
 def bench_reducers(
@@ -174,7 +172,7 @@ def bench_reducers(
     ds = open_dataset(dataset)
     reg = get_registry()
     reducers = {name: reg.create("reducer", name) for name in ("dft321", "max-min")}
-    scores = score(ds, reducers, progress=_echo)
+    scores = score(ds, reducers, progress=say)
     typer.echo(f"dataset {ds.name} ({ds.path}); metrics are means over all drops (not just representatives); "
                "definitions in docs/data.md")
     rows = []
@@ -188,7 +186,7 @@ def bench_reducers(
 
     _, windows = ds.windows(ds.objects[0])
     signal = windows[0, 0]
-    _echo(f"timing {', '.join(reducers)}")
+    say(f"timing {', '.join(reducers)}")
     t = time_reducers(reducers, signal, n_big=samples, repeat=repeats, number=number)
     n_big = (samples // signal.shape[0]) * signal.shape[0]
     typer.echo(f"\ntime per reduction ({repeats} repetitions, reducers alternated; one signal: mean of {number} calls per "

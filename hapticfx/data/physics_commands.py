@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from ..errors import DatasetError, SignalError
+from ..progress import say
 
 
 def _floats(text: str, *, option: str) -> list[float]:
@@ -22,8 +23,6 @@ def _floats(text: str, *, option: str) -> list[float]:
     return values
 
 
-def _say(message: str) -> None:
-    typer.echo(message, err=True)
 
 
 def synth(
@@ -52,7 +51,7 @@ def synth(
         if out is not None or objects != "all" or velocities or drops != sim.BUILTIN_DROPS or seed != sim.BUILTIN_SEED:
             raise DatasetError("--builtin regenerates the packaged dataset exactly; it takes no OUT, --objects, "
                                "--velocities, --drops or --seed")
-        path = sim.synth_builtin(workers=workers, progress=_say)
+        path = sim.synth_builtin(workers=workers, progress=say)
     elif spec is not None:
         from .synth_spec import load_spec
 
@@ -63,7 +62,7 @@ def synth(
                                "--drops and --seed")
         s = load_spec(spec)
         path = sim.synth_dataset(out, s.objects, s.velocities, drops=s.drops, seed=s.seed, name=s.name, rig=s.rig,
-                                 workers=workers, overwrite=force, progress=_say,
+                                 workers=workers, overwrite=force, progress=say,
                                  command=f"hapticfx data synth {out} --spec {spec}")
     else:
         if out is None:
@@ -74,7 +73,7 @@ def synth(
         command = (f"hapticfx data synth {out} --objects {','.join(i.id for i in infos)} "
                    f"--velocities {','.join(f'{v:g}' for v in vs)} --drops {drops} --seed {seed}")
         path = sim.synth_dataset(out, infos, vs, drops=drops, seed=seed, workers=workers,
-                                 overwrite=force, progress=_say, command=command)
+                                 overwrite=force, progress=say, command=command)
     typer.echo(f"wrote {path} in {time.perf_counter() - started:.1f} s")
 
 
@@ -97,10 +96,10 @@ def bench_contact(
     tols = _floats(rtols, option="--rtols")
     if any(not 1e-13 <= t <= 1e-1 for t in tols):
         raise SignalError(f"--rtols must lie in [1e-13, 0.1], got {tols}")
-    render_rows = contactbench.renders(repeats=repeats, progress=_say)
+    render_rows = contactbench.renders(repeats=repeats, progress=say)
     typer.echo(f"## contact model renders (budget {contactbench.RENDER_BUDGET_MS:g} ms each)\n")
     typer.echo(contactbench.render_table(render_rows))
-    rows = contactbench.run(solvers=names, rtols=tols, repeats=repeats, progress=_say) if names else []
+    rows = contactbench.run(solvers=names, rtols=tols, repeats=repeats, progress=say) if names else []
     if rows:
         typer.echo("\n## work precision of the integration\n")
         typer.echo(contactbench.table(rows))

@@ -58,7 +58,8 @@ class GateResult:
 
 def fuzz_gate(gate: Gate, inputs: int, *, seed: int = 0, time_limit_s: float = 1.0,
               progress: Callable[[int], None] | None = None) -> GateResult:
-    """Run ``inputs`` mutants of the gate's seeds (input ``i`` is the same for the same ``seed``)."""
+    """Run ``inputs`` mutants of the gate's seeds (input ``i`` is the same for the same ``seed``);
+    ``progress(n)`` is told of every ``n`` more inputs done."""
     res = GateResult(gate.name)
     previous = signal.signal(signal.SIGALRM, _raise_hang)
     try:
@@ -71,8 +72,8 @@ def fuzz_gate(gate: Gate, inputs: int, *, seed: int = 0, time_limit_s: float = 1
                 rng = np.random.default_rng([seed, i])
                 data = seeds[i % len(seeds)] if i < len(seeds) else mutate(seeds[int(rng.integers(len(seeds)))], rng)
                 _one(gate, data, work, res, time_limit_s)
-                if progress and (i + 1) % 1000 == 0:
-                    progress(i + 1)
+                if progress and ((i + 1) % 100 == 0 or i + 1 == inputs):
+                    progress(100 if (i + 1) % 100 == 0 else (i + 1) % 100)
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import copy
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -13,6 +12,7 @@ import numpy as np
 import torch
 
 from hapticfx.errors import CheckpointError, DatasetError
+from hapticfx.progress import Progress
 
 from . import checkpoint
 from .networks import blend_plus_residual, build_network
@@ -102,9 +102,7 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
         state, best_state = _resume(out, net, opt, gen, meta)
     bar = None
     if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=training["epochs"], initial=state["epoch"], desc=label or arch, unit="epoch",
-                   file=sys.stderr, leave=True, dynamic_ncols=True)
+        bar = Progress(training["epochs"], label or arch, unit="epochs", done=state["epoch"]).__enter__()
     created = out is not None and not Path(out).exists()
     bs = int(training["batch_size"])
     t0 = time.perf_counter() - state["elapsed_s"]
@@ -136,8 +134,7 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
         if out is not None:
             _saved(lambda: _save_resume(out, net, opt, gen, meta, state), out, state, created)
         if bar is not None:
-            bar.set_postfix(loss=f"{train_rmse:.4f}", val=f"{val_rmse:.4f}", best=state["best_epoch"])
-            bar.update(1)
+            bar.update(note=f"loss {train_rmse:.4f}, val {val_rmse:.4f}, best epoch {state['best_epoch']}")
     if bar is not None:
         bar.close()
     net.load_state_dict(best_state)

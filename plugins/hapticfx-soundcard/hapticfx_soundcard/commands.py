@@ -8,6 +8,7 @@ from typing import Optional
 import numpy as np
 import typer
 from hapticfx.errors import SignalError
+from hapticfx.progress import Progress, say
 
 
 def devices():
@@ -90,9 +91,10 @@ def _latency_section(effects: list[Path], impacts: int, latency, device: str, ga
                     paths[f"osc-{osc_object}"] = bench.TimedPath(f"OSC datagram, {osc_object}", lambda v: client.sendto(
                         encode_impact(f"osc-{osc_object}", v), addr), 0)
                     at_start = floor_act.underflows
-                    lat, underflows = bench.first_sample_latencies(
-                        list(paths.values()), rate, impacts, gap_s=gap_s, underflows=lambda: floor_act.underflows,
-                        progress=lambda i: _progress(f"latency {latency}", i, impacts))
+                    with Progress(impacts, f"latency {latency}", unit="rounds") as bar:
+                        lat, underflows = bench.first_sample_latencies(
+                            list(paths.values()), rate, impacts, gap_s=gap_s, underflows=lambda: floor_act.underflows,
+                            progress=lambda i: bar.update())
             stats = engine.close()
     floor_lat = lat[floor.name] * 1000
     heard = floor_lat[~np.isnan(floor_lat)]
@@ -166,7 +168,7 @@ def bench_output(
                        "| cut off by the outage |\n|---|---:|---:|---:|---:|---:|")
             for mode, label in (("stall-resume", "server stopped 1 s, then continued"),
                                 ("restart", "server killed, then started again")):
-                runs = bench.recovery_runs(mode, recoveries, script=str(script), progress=_say)
+                runs = bench.recovery_runs(mode, recoveries, script=str(script), progress=say)
                 back = [float(r["recovered_s"]) for r in runs if r.get("recovered_s", "never") != "never"]
                 det = [float(r["detected_s"]) for r in runs if r.get("detected_s", "never") != "never"]
                 heard = sum(int(r.get("heard", 0)) for r in runs)
@@ -196,15 +198,6 @@ def _latency(text: str | float) -> str | float:
     if not 0.001 <= seconds <= 1.0:
         raise SignalError(f"--latency: expected 'low', 'high' or seconds in [0.001, 1], got {text!r}")
     return seconds
-
-
-def _progress(label: str, i: int, n: int) -> None:
-    if i == n or i % 20 == 0:
-        typer.echo(f"  {label}: {i}/{n} rounds", err=True)
-
-
-def _say(message: str) -> None:
-    typer.echo(message, err=True)
 
 
 def add_commands(app: typer.Typer, bench: typer.Typer) -> None:
