@@ -168,3 +168,12 @@ def test_an_object_the_effect_does_not_describe_is_an_error(tmp_path):
     r = hfx("render", REPO / "effects" / "falling_brick_kinetic.yaml", "--object", "banana", "--out", tmp_path / "a.png")
     assert r.returncode == 2 and "object 'banana' is neither the effect's object (concrete-brick)" in r.stderr
     assert not (tmp_path / "a.png").exists()
+
+
+def test_the_python_wave_module_reads_what_render_writes(tmp_path):
+    import wave
+
+    r = hfx("render", REPO / "effects" / "falling_brick.yaml", "--out", tmp_path / "brick.wav")
+    assert r.returncode == 0, r.stderr
+    with wave.open(str(tmp_path / "brick.wav")) as w:
+        assert (w.getframerate(), w.getsampwidth(), w.getnchannels()) == (48000, 3, 1) and w.getnframes() == 24000
