@@ -46,18 +46,21 @@ def plot_object(ds: Dataset, object_id: str, out: Path, *, reducer: str = "max-m
     for d, x in enumerate(drops):
         if d != chosen:
             a.plot(t_ms, x, lw=0.7, alpha=0.45, color="0.45")
-    a.plot(t_ms, drops[chosen], lw=1.8, color="C3",
-           label=f"representative: drop {chosen} ({'manual' if manual else 'medoid'})")
-    a.set(title=f"{ds.object_info(object_id).name}: {len(drops)} drops at {velocities[i]:.2f} m/s ({reducer})",
+    a.plot(t_ms, drops[chosen], lw=1.8, color="C3")
+    # what the red line is goes in the title: a legend box would cover the data
+    a.set(title=f"{ds.object_info(object_id).name}: {len(drops)} drops at {velocities[i]:.2f} m/s ({reducer})\n"
+                f"red: the representative, drop {chosen} ({'chosen by hand' if manual else 'medoid'})",
           xlabel="time (ms)", ylabel="acceleration (g)")
-    a.legend(loc="upper right")
     cmap = plt.get_cmap("viridis")
+    vs = np.asarray(bank.velocities, dtype=float)
+    norm = plt.Normalize(vs.min(), vs.max() if vs.max() > vs.min() else vs.min() + 1.0)
     for k in range(len(bank)):
-        b.plot(t_ms[: bank.n_samples], bank.profiles[k], lw=0.9, color=cmap(k / max(1, len(bank) - 1)),
-               label=f"{bank.velocities[k]:.2f} m/s")
+        b.plot(t_ms[: bank.n_samples], bank.profiles[k], lw=0.9, color=cmap(norm(vs[k])))
     b.set(title=f"{ds.object_info(object_id).name}: representative profiles ({reducer})",
           xlabel="time (ms)", ylabel="acceleration (g)")
-    b.legend(fontsize=7, ncol=2, loc="upper right", title="impact velocity")
+    bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=b, pad=0.01)  # beside, not over, the data
+    bar.set_label("impact velocity (m/s)")
+    bar.set_ticks(vs)
     out = Path(out)
     try:
         with atomic_path(out, make_parents=True) as tmp:
