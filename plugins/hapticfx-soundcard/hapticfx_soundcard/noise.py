@@ -87,6 +87,7 @@ class NoiseFilter:
 
     def _pump(self, read_end: int, out: int) -> None:
         pending = b""
+        continuing = False  # the start of the current line was already forwarded: its rest is not a diagnostic
         try:
             while True:
                 chunk = os.read(read_end, 65536)
@@ -94,10 +95,16 @@ class NoiseFilter:
                     break
                 pending += chunk
                 *lines, pending = pending.split(b"\n")
-                passed = [line + b"\n" for line in lines if not self._noise(line)]
-                if pending and not _may_become_noise(pending):  # a progress line ("\r...") goes out at once
-                    passed.append(pending)
+                passed = []
+                for line in lines:
+                    if continuing or not self._noise(line):
+                        passed.append(line + b"\n")
+                    continuing = False
+                if pending and (continuing or not _may_become_noise(pending)):
+                    passed.append(pending)  # a progress line ("\r...") goes out at once
                     pending = b""
+                    continuing = True
+                    self._last_was_noise = False
                 if passed:
                     os.write(out, b"".join(passed))
             if pending and not self._noise(pending):
