@@ -4,7 +4,9 @@ Playback must start fast, and importing ``scipy.signal`` alone costs about a
 second. :func:`resample_poly` follows ``scipy.signal.resample_poly`` (Kaiser
 beta 5 FIR, zero padding) and is tested against it (tests/test_dsp.py); it runs
 the filter as one small matrix product per call, its polyphase plan computed
-once per ratio. :func:`causal_butterworth` is a cascade of bilinear 2nd-order
+once per ratio; :func:`resample_rate` puts it behind a rate pair, and it is the
+one resampler of the project (playback shaping and recorded-data preprocessing
+alike). :func:`causal_butterworth` is a cascade of bilinear 2nd-order
 Butterworth sections applied through their frequency response: causal, so a
 signal that starts at zero comes out starting at zero (no pre-ringing click).
 """
@@ -12,6 +14,7 @@ signal that starts at zero comes out starting at zero (no pre-ringing click).
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from functools import lru_cache
 
 import numpy as np
@@ -67,6 +70,24 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
     start = lo + left
     windows = sliding_window_view(padded, m.shape[0], axis=-1)[..., start:start + (blocks - 1) * down + 1:down, :]
     return (windows @ m).reshape(x.shape[:-1] + (blocks * up,))[..., :n_out]
+
+
+def rate_ratio(from_hz: float, to_hz: float) -> Fraction:
+    """``to_hz / from_hz`` as the nearest fraction with a denominator up to 1000 (``ValueError`` when 0)."""
+    ratio = Fraction(to_hz / from_hz).limit_denominator(1000)
+    if ratio.numerator == 0:
+        raise ValueError(f"cannot resample from {from_hz:g} Hz to {to_hz:g} Hz")
+    return ratio
+
+
+def resample_rate(x: np.ndarray, from_hz: float, to_hz: float, *, axis: int = -1) -> np.ndarray:
+    """``x`` sampled at ``from_hz`` resampled along ``axis`` by :func:`rate_ratio` (``from_hz * ratio``
+    is the rate it then has, ``to_hz`` to within 1/1000)."""
+    if from_hz == to_hz:
+        return np.array(x, dtype=np.float64)
+    ratio = rate_ratio(from_hz, to_hz)
+    x = np.moveaxis(np.asarray(x, dtype=np.float64), axis, -1)
+    return np.moveaxis(resample_poly(x, ratio.numerator, ratio.denominator), -1, axis)
 
 
 def _next_pow2(n: int) -> int:

@@ -12,9 +12,7 @@ limiter comes after this, always.
 
 from __future__ import annotations
 
-from fractions import Fraction
-
-from .dsp import causal_butterworth, resample_poly, taper
+from .dsp import causal_butterworth, rate_ratio, resample_rate, taper
 from .interfaces import ActuatorSpec
 from .signal import Signal, valid_number
 
@@ -27,9 +25,8 @@ def resample(signal: Signal, rate_hz: float) -> Signal:
     rate_hz = valid_number(rate_hz, name="rate_hz", minimum=1e-9)
     if rate_hz == signal.rate_hz:
         return signal
-    ratio = Fraction(rate_hz / signal.rate_hz).limit_denominator(1000)
-    out = resample_poly(signal.samples, ratio.numerator, ratio.denominator)
-    return Signal(out, signal.rate_hz * ratio.numerator / ratio.denominator)
+    rate = signal.rate_hz * rate_ratio(signal.rate_hz, rate_hz)
+    return Signal(resample_rate(signal.samples, signal.rate_hz, rate_hz), float(rate))
 
 
 def band_limit(signal: Signal, band_hz: tuple[float, float]) -> Signal:

@@ -9,7 +9,7 @@ import pytest
 import scipy.signal as ss
 
 from hapticfx.actuators.files import read_wav, write_wav
-from hapticfx.dsp import causal_butterworth, resample_poly, taper
+from hapticfx.dsp import causal_butterworth, rate_ratio, resample_poly, resample_rate, taper
 from hapticfx.interfaces import ActuatorSpec
 from hapticfx.shaping import shape
 from hapticfx.signal import Signal
@@ -25,6 +25,20 @@ def test_resample_matches_scipy(dtype, up, down):
     ref = ss.resample_poly(x.astype(np.float64), up, down, axis=-1)
     assert ours.shape == ref.shape and ours.dtype == np.float64
     assert np.max(np.abs(ours - ref)) < 1e-12
+
+
+@pytest.mark.parametrize("from_hz, to_hz", [(2400.0, 1000.0), (1000.0, 44100.0), (1000.0, 1000.0), (1e6, 1000.0)])
+def test_resample_rate_along_any_axis_matches_scipy(from_hz, to_hz):
+    x = np.random.default_rng(7).standard_normal((3, 600, 2))  # time on the middle axis, as a dataset has it
+    ratio = rate_ratio(from_hz, to_hz)
+    ref = ss.resample_poly(x, ratio.numerator, ratio.denominator, axis=1)
+    ours = resample_rate(x, from_hz, to_hz, axis=1)
+    assert ours.shape == ref.shape and np.max(np.abs(ours - ref)) < 1e-12
+
+
+def test_a_ratio_that_rounds_to_zero_is_refused():
+    with pytest.raises(ValueError, match="cannot resample from 1e\\+06 Hz to 0.1 Hz"):
+        resample_rate(np.ones(10), 1e6, 0.1)
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])

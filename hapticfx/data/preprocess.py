@@ -17,10 +17,10 @@ of a 1D signal.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from fractions import Fraction
 
 import numpy as np
 
+from ..dsp import resample_rate
 from ..errors import SignalError
 from ..signal import valid_number, valid_signal
 
@@ -87,18 +87,15 @@ def highpass(x, rate_hz: float, *, cutoff_hz: float = 20.0, order: int = 4, axis
 
 
 def resample(x, from_hz: float, to_hz: float, *, axis: int = -1) -> np.ndarray:
-    """Polyphase resampling of ``x`` along ``axis`` (the ratio is approximated to 1/1000)."""
-    from scipy.signal import resample_poly
-
+    """Polyphase resampling of ``x`` along ``axis`` (the ratio is approximated to 1/1000), by
+    :func:`hapticfx.dsp.resample_rate`, the resampler of the playback path."""
     arr = valid_signal(x, name="signal")
     src = valid_number(from_hz, name="from_hz", minimum=1e-9)
     dst = valid_number(to_hz, name="to_hz", minimum=1e-9)
-    if src == dst:
-        return arr.copy()
-    ratio = Fraction(dst / src).limit_denominator(1000)
-    if ratio.numerator == 0:
-        raise SignalError(f"cannot resample from {src} Hz to {dst} Hz")
-    return resample_poly(arr, ratio.numerator, ratio.denominator, axis=axis)
+    try:
+        return resample_rate(arr, src, dst, axis=axis)
+    except ValueError as exc:
+        raise SignalError(str(exc)) from None
 
 
 def trigger_onsets(xyz, *, fraction: float = 0.1) -> np.ndarray:
