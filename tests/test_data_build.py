@@ -7,9 +7,9 @@ import pytest
 
 from hapticfx.data.build import ObjectRecordings, build_dataset, set_representative
 from hapticfx.data.dataset import open_dataset
-from hapticfx.data.preprocess import preprocess
-from hapticfx.data.reducers import dft321, max_min
-from hapticfx.data.representative import choose, medoid
+from hapticfx.processing.preprocess import preprocess
+from hapticfx.processing.reducers import dft321, max_min
+from hapticfx.processing.representative import choose, medoid
 from hapticfx.data.toy import toy_recordings
 from hapticfx.errors import DatasetError, PluginError
 from hapticfx.objects import PAPER_OBJECTS

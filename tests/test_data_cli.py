@@ -27,7 +27,7 @@ def dataset(tmp_path):
 
 def test_record_import_info_plot_pick_end_to_end(tmp_path, capsys):
     pytest.importorskip("serial")
-    from hapticfx.data.accel_emulator import AccelBoardEmulator
+    from hapticfx.board.emulator import AccelBoardEmulator
 
     t = np.arange(300) / 1000.0
     imp = [np.stack([a * np.exp(-t / 0.03) * np.sin(2 * np.pi * 120 * t), 0.4 * a * np.exp(-t / 0.03) * np.sin(2 * np.pi * 200 * t),
@@ -90,7 +90,7 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
 
 def test_builtin_dataset_banks_agree_with_its_raw_drops(capsys):
     from hapticfx.data.dataset import BUILTIN_DIR
-    from hapticfx.data.reducers import dft321, max_min
+    from hapticfx.processing.reducers import dft321, max_min
 
     if not (BUILTIN_DIR / "helmet-drops" / "dataset.json").is_file():
         pytest.skip("builtin:helmet-drops is not generated in this checkout")

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from hapticfx.data.metrics import match, peak_match, spectral_match, temporal_match, welch_spectral_match
-from hapticfx.data.preprocess import preprocess
-from hapticfx.data.reducers import dft321, max_min
+from hapticfx.processing.metrics import match, peak_match, spectral_match, temporal_match, welch_spectral_match
+from hapticfx.processing.preprocess import preprocess
+from hapticfx.processing.reducers import dft321, max_min
 from hapticfx.data.toy import toy_recordings
 from hapticfx.errors import SignalError
 from hapticfx.objects import PAPER_OBJECTS

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from hapticfx.data.preprocess import Preprocessing, highpass, highpass_sos, preprocess, resample, trigger_onsets
+from hapticfx.processing.preprocess import Preprocessing, highpass, highpass_sos, preprocess, resample, trigger_onsets
 from hapticfx.errors import SignalError
 
 FS = 1000.0

@@ -10,10 +10,10 @@ import tty
 import numpy as np
 import pytest
 
-from hapticfx.data.accel_emulator import AccelBoardEmulator
-from hapticfx.data.accel_protocol import GY61, parse_hello, parse_sample
+from hapticfx.board.emulator import AccelBoardEmulator
+from hapticfx.board.protocol import GY61, parse_hello, parse_sample
 from hapticfx.data.csv_import import read_csv_recordings
-from hapticfx.data.record import impact_velocity, record_drops
+from hapticfx.board.record import impact_velocity, record_drops
 from hapticfx.errors import DeviceError
 
 pytest.importorskip("serial")

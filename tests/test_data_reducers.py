@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from hapticfx.data.reducers import DFT321, MaxMin, dft321, max_min
+from hapticfx.processing.reducers import DFT321, MaxMin, dft321, max_min
 from hapticfx.errors import SignalError
 from hapticfx.registry import get_registry
 

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from hapticfx.data.dataset import open_dataset
-from hapticfx.data.synth_spec import load_spec
+from hapticfx.droprig.spec import load_spec
 from hapticfx.errors import EffectError
 
 SPEC = {

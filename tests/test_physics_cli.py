@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hapticfx.cli import main
-from hapticfx.data import contactbench
+from hapticfx.droprig import contact_bench
 from hapticfx.data.dataset import open_dataset
 
 
@@ -57,8 +57,8 @@ def test_bench_contact_rejects_unknown_solver(capsys):
 
 
 def test_bench_rows_measure_error_against_the_reference():
-    case = contactbench.Case("short", 1e7, 3.96, duration_s=0.02)
-    rows = contactbench.run(cases=[case], solvers=["RK45", "LSODA"], rtols=[1e-3, 1e-8], repeats=1)
+    case = contact_bench.Case("short", 1e7, 3.96, duration_s=0.02)
+    rows = contact_bench.run(cases=[case], solvers=["RK45", "LSODA"], rtols=[1e-3, 1e-8], repeats=1)
     assert [(r["solver"], r["rtol"]) for r in rows] == [("RK45", 1e-3), ("LSODA", 1e-3), ("RK45", 1e-8), ("LSODA", 1e-8)]
     by = {(r["solver"], r["rtol"]): r for r in rows}
     for solver in ("RK45", "LSODA"):
@@ -66,5 +66,5 @@ def test_bench_rows_measure_error_against_the_reference():
         assert by[(solver, 1e-8)]["evaluations"] > by[(solver, 1e-3)]["evaluations"]
     assert by[("RK45", 1e-3)]["ratio"] == 1.0
     assert rows[0]["ref_pos_err_um"] < 1e-2  # the reference agrees with an independent tight solution
-    table = contactbench.table(rows)
+    table = contact_bench.table(rows)
     assert "| short | LSODA | 1e-08 |" in table

@@ -7,10 +7,10 @@ import itertools
 import numpy as np
 import pytest
 
-from hapticfx.data.contact import JY, VY, Y, Block, DropScene
-from hapticfx.data.hertz import hunt_crossley
-from hapticfx.data.helmet import Helmet
-from hapticfx.data.synth import Drop, Rig, scene_for, simulate_drop
+from hapticfx.droprig.contact import JY, VY, Y, Block, DropScene
+from hapticfx.droprig.hertz import hunt_crossley
+from hapticfx.droprig.helmet import Helmet
+from hapticfx.droprig.synth import Drop, Rig, scene_for, simulate_drop
 from hapticfx.objects import PAPER_OBJECTS, ObjectInfo
 
 

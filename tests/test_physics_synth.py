@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from hapticfx.data.dataset import BUILTIN_DIR, open_dataset
-from hapticfx.data.preprocess import preprocess
-from hapticfx.data.reducers import max_min
-from hapticfx.data.sensor import Accelerometer
-from hapticfx.data.synth import PAPER_VELOCITIES, Rig, Variation, record_drops
+from hapticfx.processing.preprocess import preprocess
+from hapticfx.processing.reducers import max_min
+from hapticfx.droprig.sensor import Accelerometer
+from hapticfx.droprig.synth import PAPER_VELOCITIES, Rig, Variation, record_drops
 from hapticfx.errors import DatasetError
 from hapticfx.objects import PAPER_OBJECTS
 

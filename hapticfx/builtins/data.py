@@ -6,8 +6,8 @@ from ..registry import lazy
 
 @hookimpl
 def register_reducers(register):
-    register("max-min", lazy("hapticfx.data.reducers:MaxMin"))
-    register("dft321", lazy("hapticfx.data.reducers:DFT321"))
+    register("max-min", lazy("hapticfx.processing.reducers:MaxMin"))
+    register("dft321", lazy("hapticfx.processing.reducers:DFT321"))
 
 
 @hookimpl

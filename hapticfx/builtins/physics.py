@@ -11,6 +11,6 @@ def register_models(register):
 
 @hookimpl
 def register_commands(bench, data):
-    from ..data.physics_commands import register
+    from ..droprig.commands import register
 
     register(bench, data)

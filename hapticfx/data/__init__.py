@@ -1,1 +1,1 @@
-"""Datasets of impact recordings, their preprocessing, and the profile banks built from them."""
+"""Impact datasets: the on-disk format, CSV import, profile banks built from them, and the ``data`` commands."""

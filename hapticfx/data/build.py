@@ -1,7 +1,7 @@
 """Building a dataset directory from 3-axis drop recordings.
 
-:func:`build_dataset` preprocesses every drop (:mod:`hapticfx.data.preprocess`),
-picks a representative drop per velocity (:mod:`hapticfx.data.representative`,
+:func:`build_dataset` preprocesses every drop (:mod:`hapticfx.processing.preprocess`),
+picks a representative drop per velocity (:mod:`hapticfx.processing.representative`,
 honouring manual overrides), and writes the raw recordings, one bank per reducer
 and the fitted ``ensemble`` interpolator's table per reducer
 (:mod:`hapticfx.interpolators.ensemble`) atomically with
@@ -20,11 +20,11 @@ from ..errors import DatasetError, HapticfxError
 from ..interfaces import TrainingData
 from ..interpolators.ensemble import fit_table, table_path
 from ..objects import ObjectInfo
+from ..processing import representative
+from ..processing.preprocess import Preprocessing, preprocess
 from ..signal import valid_number, valid_signal
-from . import representative
 from .bank import ProfileBank
 from .dataset import DatasetWriter
-from .preprocess import Preprocessing, preprocess
 
 
 @dataclass

@@ -64,7 +64,7 @@ def record(
     baud: int = typer.Option(500000, help="Serial baud rate (the sketch uses 500000)."),
 ):
     """Record triggered drops from the serial accelerometer board, one CSV file per drop."""
-    from .record import record_drops
+    from ..board.record import record_drops
 
     files = record_drops(port, object_id=object, height_m=height_m, drops=drops, out_dir=out_dir,
                          threshold_g=threshold_g, pre_trigger=pre_trigger, n_samples=samples,
@@ -166,7 +166,7 @@ def bench_reducers(
     """Table 4 analogue (spectral/temporal match per object and reducer) and time per reduction."""
     from ..registry import get_registry
     from ..timing import table
-    from .bench import METRICS, score, time_reducers
+    from ..processing.reducer_bench import METRICS, score, time_reducers
     from .dataset import open_dataset
 
     ds = open_dataset(dataset)

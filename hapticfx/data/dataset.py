@@ -146,7 +146,7 @@ class Dataset:
 
     def windows(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
         """All drops of one object preprocessed as the banks were: ``velocities (V,)``, ``(V, D, n_samples, 3)``."""
-        from .preprocess import Preprocessing, preprocess
+        from ..processing.preprocess import Preprocessing, preprocess
 
         velocities, accel = self.raw(object_id)
         params = Preprocessing.from_dict(self.meta.get("preprocessing", {}))
@@ -209,7 +209,7 @@ def open_dataset(ref: str | os.PathLike, *, relative_to: Path | None = None) -> 
 
 def _check_meta(meta: dict, where: Path) -> None:
     """The metadata every reader relies on: rates, length, objects with a mass, preprocessing."""
-    from .preprocess import Preprocessing
+    from ..processing.preprocess import Preprocessing
 
     def number(key: str, value, lo: float, hi: float, integer: bool = False) -> None:
         ok = isinstance(value, int) if integer else isinstance(value, (int, float))

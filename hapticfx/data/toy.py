@@ -3,7 +3,7 @@
 Each drop is gravity plus, from a jittered onset, three axes of decaying
 sinusoids whose amplitude grows with velocity; drop-to-drop variation comes
 from ``rng``. The physically simulated built-in dataset is
-``builtin:helmet-drops`` (:mod:`hapticfx.data.synth`); this only exercises the pipeline.
+``builtin:helmet-drops`` (:mod:`hapticfx.droprig.synth`); this only exercises the pipeline.
 """
 
 from __future__ import annotations

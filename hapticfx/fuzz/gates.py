@@ -178,7 +178,7 @@ def _osc_run(data: bytes, work: Path) -> None:
 
 def _serial(data: bytes, work: Path) -> None:
     """One line from a board: the accelerometer's HELLO or sample, the solenoid's replies (each tried)."""
-    from ..data.accel_protocol import parse_hello, parse_sample
+    from ..board.protocol import parse_hello, parse_sample
     from ..errors import HapticfxError
 
     line = data.decode("latin-1")

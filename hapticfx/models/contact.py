@@ -20,7 +20,7 @@ FINE_RATE_HZ = 20000.0  # the contact and the helmet's modes are resolved on thi
 
 
 class ContactModel(Model):
-    """The drop-rig physics (:mod:`hapticfx.data.contact`) rendered as one impact profile in g.
+    """The drop-rig physics (:mod:`hapticfx.droprig.contact`) rendered as one impact profile in g.
 
     The object meets the helmet at the impact's velocity; the Hunt-Crossley
     contact (every contact until they part for good) drives the helmet's
@@ -36,7 +36,7 @@ class ContactModel(Model):
     touch into a thump; without it the response fades to silence as the
     velocity goes to 0, and a hit along any direction (a bat, a kick) is
     rendered the same way as a fall. The recorded drops of the built-in
-    dataset (:mod:`hapticfx.data.synth`) do include gravity.
+    dataset (:mod:`hapticfx.droprig.synth`) do include gravity.
     """
 
     name = "contact"
@@ -64,7 +64,7 @@ class ContactModel(Model):
         import scipy.integrate  # noqa: F401 -- loaded when the effect is built, not on its first impact (~1 s)
         import scipy.signal  # noqa: F401
 
-        from ..data.contact import MATERIALS
+        from ..droprig.contact import MATERIALS
         from ..registry import get_registry
 
         self.params = params
@@ -98,9 +98,9 @@ class ContactModel(Model):
         The scene's state is sampled ``n_fine - lead`` times at ``fine_rate_hz``
         from the first contact; ``lead`` fine samples of silence come before it.
         """
-        from ..data.contact import material
-        from ..data.helmet import Helmet
-        from ..data.synth import Drop, scene_for
+        from ..droprig.contact import material
+        from ..droprig.helmet import Helmet
+        from ..droprig.synth import Drop, scene_for
 
         p = self.params
         n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
@@ -114,7 +114,7 @@ class ContactModel(Model):
         return scene, fine_rate, n * over, min(n * over, int(round(p.pre_ms / 1000.0 * fine_rate)))
 
     def _profile(self, info: ObjectInfo, velocity: float) -> np.ndarray:
-        from ..data.hertz import G
+        from ..droprig.hertz import G
 
         p = self.params
         n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
@@ -144,7 +144,7 @@ class ContactModel(Model):
         return Signal(cached, self.params.rate_hz)
 
     def describe(self) -> dict:
-        from ..data.contact import material
+        from ..droprig.contact import material
 
         p = self.params
         info = self.context.object_info

@@ -6,7 +6,7 @@
 //         Arduino 3.3V -> AREF (so that full scale is the sensor's supply).
 //
 // Line protocol (ASCII, '\n'-terminated; see docs/data.md and
-// hapticfx/data/accel_protocol.py). The host speaks first:
+// hapticfx/board/protocol.py). The host speaks first:
 //   HELLO  -> HAPTICFX-ACCEL 1 rate_hz=1000 sensor=ADXL335 board=GY-61 adc_bits=10 zero=512,512,512 counts_per_g=102.4,102.4,102.4
 //   START  -> OK START, then one line per sample: seq,x,y,z  (seq modulo 65536)
 //   STOP   -> OK STOP

@@ -1,6 +1,6 @@
 """An emulator of the accelerometer board on a pseudo-terminal pair.
 
-It answers the line protocol of :mod:`hapticfx.data.accel_protocol` exactly as
+It answers the line protocol of :mod:`hapticfx.board.protocol` exactly as
 the firmware sketch does (``Serial.println`` line ends ``\r\n`` included), so
 ``hapticfx data record`` can be tested end to end with pyserial and no
 hardware. While streaming it sends gravity plus sensor noise, and after
@@ -19,7 +19,7 @@ import tty
 
 import numpy as np
 
-from .accel_protocol import GY61, BoardInfo, sample_line
+from .protocol import GY61, BoardInfo, sample_line
 
 
 class AccelBoardEmulator:

@@ -13,7 +13,7 @@
       - {id: ceramic-tile, name: Ceramic tile, mass_kg: 0.12, dimensions_mm: [100, 100, 8],
          material: ceramic, velocities_mps: [1.82, 2.66, 2.94]}
 
-Materials come from the simulator's table (:data:`hapticfx.data.contact.MATERIALS`).
+Materials come from the simulator's table (:data:`hapticfx.droprig.contact.MATERIALS`).
 Unknown keys, wrong types and out-of-range numbers are errors naming the file and key.
 """
 

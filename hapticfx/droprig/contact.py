@@ -3,7 +3,7 @@
 The falling object is a rectangle (half-width ``a`` in the plane of the drop,
 half-thickness ``b``) with position, tilt and their rates; the helmet top is a
 circular dome of radius ``R`` whose crown can bounce vertically on its support
-and rock about a pivot on the floor (see :mod:`hapticfx.data.helmet`). The
+and rock about a pivot on the floor (see :mod:`hapticfx.droprig.helmet`). The
 contact force follows Hunt and Crossley (1975)::
 
     F = k * delta**1.5 * (1 + alpha * d(delta)/dt),   F >= 0

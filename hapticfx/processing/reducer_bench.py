@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..timing import Timing
 from . import metrics
-from .dataset import Dataset
+
+if TYPE_CHECKING:  # processing never imports the dataset package: the dependency runs the other way
+    from ..data.dataset import Dataset
 
 METRICS = (
     ("spectral", metrics.spectral_match),

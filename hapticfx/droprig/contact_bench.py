@@ -6,7 +6,7 @@ of the integration itself.
 
 Work precision:
 
-Each case is one drop of the drop-rig simulator (:class:`~hapticfx.data.contact.DropScene`,
+Each case is one drop of the drop-rig simulator (:class:`~hapticfx.droprig.contact.DropScene`,
 the wood beam on the helmet) integrated over the recording window by every
 solver at every tolerance. The error is measured against a float64 reference
 integrated by Radau at rtol 1e-12 (its own agreement with DOP853 at 1e-12 is

@@ -3,10 +3,10 @@
 One drop: an object (mass, size, material) falls onto the helmet dome at a
 given velocity with a slightly varying pose (:class:`Variation`; the thin
 steel plate varies most, as the paper observed); the contact is integrated
-with a Hunt-Crossley law (:mod:`hapticfx.data.contact`), rebounds and
+with a Hunt-Crossley law (:mod:`hapticfx.droprig.contact`), rebounds and
 secondary impacts included; the helmet answers with its modes
-(:mod:`hapticfx.data.helmet`); an ADXL335-like sensor behind a 14-bit DAQ
-records it at 1 kHz with gravity, clipping and noise (:mod:`hapticfx.data.sensor`).
+(:mod:`hapticfx.droprig.helmet`); an ADXL335-like sensor behind a 14-bit DAQ
+records it at 1 kHz with gravity, clipping and noise (:mod:`hapticfx.droprig.sensor`).
 
 :func:`record_drops` makes ``(V, D, N, 3)`` raw recordings for one object;
 :func:`synth_dataset` writes a dataset with banks through
@@ -201,7 +201,7 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
 
     ``velocities``: one list for every object, or a mapping object id -> its own list.
     """
-    from .build import ObjectRecordings, build_dataset
+    from ..data.build import ObjectRecordings, build_dataset
 
     rig = rig or Rig()
     objects = list(objects)
@@ -220,8 +220,8 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
     from .. import __version__ as hapticfx_version
 
     provenance = {
-        "generator": "hapticfx.data.synth (simulated drop rig; not a measurement)",
-        "command": command or "hapticfx.data.synth.synth_dataset (Python API)",
+        "generator": "hapticfx.droprig.synth (simulated drop rig; not a measurement)",
+        "command": command or "hapticfx.droprig.synth.synth_dataset (Python API)",
         "seed": int(seed),
         "drops": int(drops),
         "velocities_mps": ({k: v.tolist() for k, v in per_object.items()} if isinstance(velocities, dict)
@@ -242,7 +242,7 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
 
 def builtin_path() -> Path:
     """Where ``builtin:helmet-drops`` lives inside the package."""
-    from .dataset import BUILTIN_DIR
+    from ..data.dataset import BUILTIN_DIR
 
     return BUILTIN_DIR / BUILTIN_NAME
 

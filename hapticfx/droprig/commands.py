@@ -53,7 +53,7 @@ def synth(
                                "--velocities, --drops or --seed")
         path = sim.synth_builtin(workers=workers, progress=say)
     elif spec is not None:
-        from .synth_spec import load_spec
+        from .spec import load_spec
 
         if out is None:
             raise DatasetError("give an output directory for --spec")
@@ -86,7 +86,7 @@ def bench_contact(
 ):
     """Contact physics: the contact model's render time over stiffness, mass and velocity against its
     50 ms budget, then a work-precision table of the integration (soft k=1e5 to very stiff k=1e10)."""
-    from . import contactbench
+    from . import contact_bench
 
     names = [] if solvers.strip() == "none" else [s.strip() for s in solvers.split(",") if s.strip()]
     known = {"RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"}
@@ -96,13 +96,13 @@ def bench_contact(
     tols = _floats(rtols, option="--rtols")
     if any(not 1e-13 <= t <= 1e-1 for t in tols):
         raise SignalError(f"--rtols must lie in [1e-13, 0.1], got {tols}")
-    render_rows = contactbench.renders(repeats=repeats, progress=say)
-    typer.echo(f"## contact model renders (budget {contactbench.RENDER_BUDGET_MS:g} ms each)\n")
-    typer.echo(contactbench.render_table(render_rows))
-    rows = contactbench.run(solvers=names, rtols=tols, repeats=repeats, progress=say) if names else []
+    render_rows = contact_bench.renders(repeats=repeats, progress=say)
+    typer.echo(f"## contact model renders (budget {contact_bench.RENDER_BUDGET_MS:g} ms each)\n")
+    typer.echo(contact_bench.render_table(render_rows))
+    rows = contact_bench.run(solvers=names, rtols=tols, repeats=repeats, progress=say) if names else []
     if rows:
         typer.echo("\n## work precision of the integration\n")
-        typer.echo(contactbench.table(rows))
+        typer.echo(contact_bench.table(rows))
     if out is not None:
         tmp = out.with_name(f".{out.name}.tmp")
         tmp.write_text(json.dumps({"renders": render_rows, "solvers": rows}, indent=2) + "\n")

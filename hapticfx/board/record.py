@@ -22,10 +22,10 @@ from typing import Callable
 import numpy as np
 
 from ..atomic import atomic_path
+from ..data.csv_import import COLUMNS
 from ..errors import DeviceError, SignalError
 from ..signal import valid_number
-from .accel_protocol import BAUD, SEQ_MODULO, BoardInfo, parse_hello, parse_sample
-from .csv_import import COLUMNS
+from .protocol import BAUD, SEQ_MODULO, BoardInfo, parse_hello, parse_sample
 
 STANDARD_GRAVITY = 9.80665
 
