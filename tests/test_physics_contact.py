@@ -7,7 +7,8 @@ import itertools
 import numpy as np
 import pytest
 
-from hapticfx.droprig.contact import JY, VY, Y, Block, DropScene
+from hapticfx.droprig.contact import Block, DropScene
+from hapticfx.droprig.state import JY, VY, Y
 from hapticfx.droprig.hertz import hunt_crossley
 from hapticfx.droprig.helmet import Helmet
 from hapticfx.droprig.synth import Drop, Rig, scene_for, simulate_drop

@@ -31,11 +31,7 @@ from ..errors import SignalError
 from ..signal import valid_number
 from .helmet import Helmet
 from .hertz import G
-
-
-# State layout.
-X, Y, TH, VX, VY, OM, YH, VH, BE, VB, JY, JT = range(12)
-N_RIGID = 12  # plus one impulse per shell mode
+from .state import BE, JT, JY, N_RIGID, OM, TH, VB, VH, VX, VY, X, Y, YH
 
 
 @dataclass(frozen=True)

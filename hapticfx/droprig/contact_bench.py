@@ -28,8 +28,9 @@ from typing import Callable
 import numpy as np
 
 from ..objects import PAPER_OBJECTS
-from .contact import JY, Y, DropScene
+from .contact import DropScene
 from .hertz import G
+from .state import JY, Y
 from .synth import Drop, Rig, scene_for
 
 SOLVERS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")

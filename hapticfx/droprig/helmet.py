@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .hertz import G, hunt_crossley
+from .state import BE, JT, JY, N_RIGID, VB, VH, YH
 
 
 @dataclass(frozen=True)
@@ -105,8 +106,6 @@ class Helmet:
         the integrated impulses), so a contact shorter than a sample still counts.
         """
         from scipy.signal import lfilter
-
-        from .contact import BE, JT, JY, N_RIGID, VB, VH, YH
 
         dt = 1.0 / rate_hz
         # force averaged over each sample interval, aligned with the interval's end
