@@ -8,8 +8,6 @@ nothing may be asked twice. Stimuli play on memory actuators (no hardware here).
 from __future__ import annotations
 
 import json
-import shutil
-import tempfile
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -66,7 +64,7 @@ def test_api_refuses_what_does_not_belong_and_answers_once(served):
     assert [a["response"] for a in answers] == [{"ratings": {"realism": 42.5}}]
 
 
-def _browser():
+def _browser(profile: Path):
     webdriver = pytest.importorskip("selenium.webdriver")
     from selenium.webdriver.chrome.service import Service
 
@@ -74,22 +72,21 @@ def _browser():
         pytest.skip("needs Debian's chromium and chromium-driver (scripts/install.sh --test installs them)")
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
-    profile = tempfile.mkdtemp(prefix="hapticfx-chromium-")
     for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                 "--disable-component-update", "--disable-sync", "--no-first-run", f"--user-data-dir={profile}",
                 "--window-size=1100,1000"):
         options.add_argument(arg)
     # An explicit driver path: selenium never looks for (or downloads) a browser or driver of its own.
-    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=options), profile
+    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
 
 
-def test_a_scripted_participant_completes_the_study_in_chromium(served):
+def test_a_scripted_participant_completes_the_study_in_chromium(served, tmp_path):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
 
     session, server, player = served
-    driver, profile = _browser()
+    driver = _browser(tmp_path / "chromium-profile")  # pytest's tmp dir: Chromium's helpers may still write after quit
     clicked, plays, reloaded = [], 0, False
     try:
         driver.get(server.url)
@@ -134,7 +131,6 @@ def test_a_scripted_participant_completes_the_study_in_chromium(served):
         assert "Thank you" in driver.find_element(By.ID, "done").text
     finally:
         driver.quit()
-        shutil.rmtree(profile, ignore_errors=True)
     records = [json.loads(line) for line in session.log.path.read_text().splitlines()]
     answers = [r for r in records if r["type"] == "answer"]
     assert [a["response"] for a in answers] == clicked
