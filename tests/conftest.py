@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 
@@ -12,6 +11,7 @@ from hapticfx.data.dataset import DatasetWriter
 from hapticfx.objects import PAPER_OBJECTS
 from hapticfx.registry import reset_registry
 from hfx_testdata import VELOCITIES, tiny_profiles
+
 
 @pytest.fixture
 def tiny_dataset(tmp_path) -> Path:

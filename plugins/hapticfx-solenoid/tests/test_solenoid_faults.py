@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from hapticfx.errors import DeviceError, HapticfxError
+from hapticfx.errors import DeviceError
 from hapticfx.params import BuildContext
 from hapticfx.signal import Signal
 from hapticfx_solenoid.actuator import SolenoidActuator
