@@ -38,7 +38,8 @@ def fuzz(
     for name in names:
         t0 = time.perf_counter()
         if name == "limits":
-            r = check_limits(overrides, signals, seed=seed)
+            with Progress(overrides, name, unit="overrides") as bar:
+                r = check_limits(overrides, signals, seed=seed, progress=bar.update)
             rows.append(["limits", f"{r.overrides} overrides x {signals} profiles = {r.signals}", "-", "-", "-",
                          "-", "-", f"{r.violations} above a hard limit", f"{time.perf_counter() - t0:.0f}",
                          f"{peak_rss_mb():.0f}"])

@@ -13,6 +13,7 @@ on-time over every duty window. Any excess is a violation.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -103,8 +104,10 @@ def _excess(out: np.ndarray, starts: list[int], lengths: list[int], spec: Actuat
     return found or None
 
 
-def check_limits(overrides: int, signals_per_override: int, *, seed: int = 0) -> LimitsResult:
-    """Run ``overrides`` random overrides with ``signals_per_override`` random profiles each."""
+def check_limits(overrides: int, signals_per_override: int, *, seed: int = 0,
+                 progress: Callable[[int], None] | None = None) -> LimitsResult:
+    """Run ``overrides`` random overrides with ``signals_per_override`` random profiles each; ``progress(1)``
+    after each override."""
     res = LimitsResult()
     for k in range(overrides):
         rng = np.random.default_rng([seed, k])
@@ -130,4 +133,6 @@ def check_limits(overrides: int, signals_per_override: int, *, seed: int = 0) ->
         if excess:
             res.violations += 1
             res.worst = res.worst or {"actuator": name, "override": k, "limits": repr(limits), **excess}
+        if progress:
+            progress(1)
     return res
