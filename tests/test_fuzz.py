@@ -59,6 +59,30 @@ def test_regressions_found_by_the_fuzzer(tmp_path, text, expected):
         Pipeline.from_effect(path).render()
 
 
+def _encrypted_flag(npz: bytes) -> bytes:
+    """Every central-directory entry of a zip marked as encrypted (general-purpose flag bit 0)."""
+    out, at = bytearray(npz), npz.find(b"PK\x01\x02")
+    while at >= 0:
+        out[at + 8] |= 1
+        at = npz.find(b"PK\x01\x02", at + 4)
+    return bytes(out)
+
+
+@pytest.mark.parametrize("case, expected", [  # found by the 100,000-input run of `bench fuzz dataset`
+    ("encrypted", "wood-beam.npz: corrupt or unreadable"),  # was a RuntimeError traceback
+])
+def test_dataset_regressions_found_by_the_fuzzer(tmp_path, case, expected):
+    from hapticfx.errors import HapticfxError
+
+    gate = gates()["dataset"]
+    seed_json, seed_bank = gate.seeds(tmp_path)
+    data = seed_bank[:1] + _encrypted_flag(seed_bank[1:])
+    assert data not in (seed_json, seed_bank)
+    with pytest.raises(HapticfxError, match=re.escape(expected)) as err:
+        gate.run(data, tmp_path)
+    assert "\n" not in str(err.value) and len(str(err.value)) < 300
+
+
 def test_the_command_reports_counts_and_fails_on_nothing_here():
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "fuzz", "osc", "serial", "limits", "--inputs", "100",
                         "--overrides", "5", "--signals", "5"], capture_output=True, text=True)

@@ -41,9 +41,10 @@ FORMAT = "hapticfx-dataset"
 VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 BUILTIN_DIR = Path(__file__).resolve().parent.parent / "datasets"
-# What reading a damaged .npz can raise, from the file system to the zip and .npy layers.
+# What reading a damaged .npz can raise, from the file system to the zip and .npy layers
+# (zipfile raises RuntimeError for a member whose header says it is encrypted).
 UNREADABLE = (OSError, ValueError, EOFError, KeyError, IndexError, TypeError, zipfile.BadZipFile, zlib.error,
-              struct.error, NotImplementedError, SyntaxError, tokenize.TokenError, MemoryError)
+              struct.error, NotImplementedError, SyntaxError, tokenize.TokenError, MemoryError, RuntimeError)
 
 
 def resolve_dataset_path(ref: str | os.PathLike, *, relative_to: Path | None = None) -> Path:
