@@ -124,6 +124,9 @@ def test_silence_and_short_recordings():
     assert w.shape == (500, 3) and np.all(w[200:] == 0.0)
     with pytest.raises(SignalError, match="at least 4"):
         preprocess(np.zeros((3, 3)), FS)
+    assert preprocess(np.zeros((125, 3)), FS).shape == (500, 3)  # up to 4 times the recording: zeros
+    with pytest.raises(SignalError, match="n_samples 500 is more than 4 times the recordings' length"):
+        preprocess(np.zeros((124, 3)), FS)
 
 
 def test_parameters_are_validated():

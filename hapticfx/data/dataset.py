@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import user_path
-from ..errors import DatasetError, HapticfxError, one_line, preview
+from ..errors import DatasetError, HapticfxError, SignalError, one_line, preview
 from ..objects import ObjectInfo, valid_object_id
 from .bank import ProfileBank
 
@@ -151,7 +151,11 @@ class Dataset:
 
         velocities, accel = self.raw(object_id)
         params = Preprocessing.from_dict(self.meta.get("preprocessing", {}))
-        return velocities, preprocess(accel, self.raw_rate_hz, params=params)
+        try:
+            return velocities, preprocess(accel, self.raw_rate_hz, params=params)
+        except SignalError as exc:
+            raise DatasetError(f"raw/{object_id}.npz: {exc}", source=str(self.path / "dataset.json"),
+                               key="preprocessing") from None
 
     def raw(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
         """All drops of one object: ``velocities (V,)`` and ``accel_g (V, D, N, 3)``."""

@@ -25,6 +25,10 @@ from ..errors import SignalError
 from ..signal import valid_number, valid_signal
 
 
+# A window may run past a short recording (zeros), up to this many times the recording's length.
+MAX_PADDING = 4
+
+
 @dataclass(frozen=True)
 class Preprocessing:
     """Parameters of the preprocessing chain; stored in a dataset's metadata."""
@@ -116,14 +120,18 @@ def windows(xyz, onsets, *, n_samples: int, pre_samples: int) -> np.ndarray:
     """Cut ``n_samples`` from each recording starting ``pre_samples`` before its onset.
 
     Samples outside the recording are zeros. ``xyz`` ``(..., N, 3)``, ``onsets`` ``(...)``.
+    Only the result is allocated (a window's memory does not multiply with index arrays).
     """
     arr = np.asarray(xyz, dtype=np.float64)
-    starts = np.asarray(onsets, dtype=np.int64) - int(pre_samples)
-    n = arr.shape[-2]
-    idx = starts[..., None] + np.arange(int(n_samples))
-    inside = (idx >= 0) & (idx < n)
-    taken = np.take_along_axis(arr, np.clip(idx, 0, n - 1)[..., None], axis=-2)
-    return np.where(inside[..., None], taken, 0.0)
+    n, size = arr.shape[-2], int(n_samples)
+    starts = np.broadcast_to(np.asarray(onsets, dtype=np.int64) - int(pre_samples), arr.shape[:-2]).reshape(-1)
+    flat = arr.reshape(-1, n, arr.shape[-1])
+    out = np.zeros((flat.shape[0], size, arr.shape[-1]))
+    for k, start in enumerate(starts.tolist()):
+        lo, hi = max(start, 0), min(start + size, n)
+        if lo < hi:
+            out[k, lo - start:hi - start] = flat[k, lo:hi]
+    return out.reshape(arr.shape[:-2] + (size, arr.shape[-1]))
 
 
 def preprocess(accel_g, rate_hz: float, *, params: Preprocessing | None = None) -> np.ndarray:
@@ -136,6 +144,9 @@ def preprocess(accel_g, rate_hz: float, *, params: Preprocessing | None = None) 
         raise SignalError(f"recording has {arr.shape[-2]} samples; the high-pass filter needs at least 4")
     filtered = highpass(arr, rate_hz, cutoff_hz=p.cutoff_hz, order=p.order, axis=-2)
     filtered = resample(filtered, rate_hz, p.rate_hz, axis=-2)
+    if p.n_samples > MAX_PADDING * filtered.shape[-2]:  # mostly zeros, and memory that grows with n_samples
+        raise SignalError(f"n_samples {p.n_samples} is more than {MAX_PADDING} times the recordings' length "
+                          f"({filtered.shape[-2]} samples at {p.rate_hz:g} Hz)")
     onsets = trigger_onsets(filtered, fraction=p.trigger_fraction)
     pre = int(round(p.pre_trigger_s * p.rate_hz))
     return windows(filtered, onsets, n_samples=p.n_samples, pre_samples=pre)
