@@ -12,7 +12,7 @@ import sys
 import pytest
 
 from hapticfx.fuzz.gates import gates
-from hapticfx.fuzz.limits import check_limits
+from hapticfx.fuzz.limits import HARD, check_limits, excess
 from hapticfx.fuzz.mutate import mutate
 from hapticfx.fuzz.runner import fuzz_gate
 
@@ -27,6 +27,31 @@ def test_every_gate_refuses_mutants_in_one_short_line(name):
 def test_random_overrides_never_take_the_output_past_the_hard_limits():
     r = check_limits(30, 25, seed=3)
     assert (r.overrides, r.signals, r.violations) == (30, 750, 0), r.worst
+
+
+def test_the_hard_way_measure_finds_each_kind_of_excess():
+    import numpy as np
+
+    haptuator, solenoid = dict(HARD)["haptuator"], dict(HARD)["solenoid"]  # RMS 0.5 over 50 ms; 0.1 s on, 25 % duty
+    quiet = np.full(4800, 0.45)
+    assert excess(quiet, [0], [4800], haptuator, 0.01) is None
+    assert excess(np.r_[quiet, 1.2], [0], [4801], haptuator, 0.01) == {"peak": 1.2}
+    assert set(excess(np.full(2400, 0.6), [0], [2400], haptuator, 0.01)) == {"rms"}
+    assert set(excess(np.full(150, 0.9), [0], [150], solenoid, 0.01)) == {"on_time_s"}  # 150 ms in one pulse
+    pulses = np.tile(np.r_[np.full(90, 0.9), np.zeros(210)], 34)  # 90 ms on in every 300 ms: 30 % duty
+    starts = list(range(0, pulses.size, 300))
+    assert set(excess(pulses, starts, [300] * len(starts), solenoid, 0.01)) == {"duty"}
+
+
+@pytest.mark.parametrize("n, win, chunk", [(50, 7, 5), (50, 50, 3), (1000, 1, 64), (999, 40, 1 << 18)])
+def test_the_windowed_rms_in_chunks_equals_the_direct_one(n, win, chunk):
+    import numpy as np
+
+    from hapticfx.fuzz.limits import _max_window_mean_square
+
+    x = np.random.default_rng(n).standard_normal(n) * np.linspace(0, 3, n)
+    direct = max(float(np.mean(x[i:i + win] ** 2)) for i in range(n - win + 1))
+    assert _max_window_mean_square(x, win, chunk=chunk) == pytest.approx(direct, rel=1e-12)
 
 
 def test_mutants_are_reproducible_and_differ_from_their_seed():

@@ -75,20 +75,32 @@ def _override(spec: ActuatorSpec, rng: np.random.Generator) -> SafetyLimits:
     return hard.lowered(**change)
 
 
-def _excess(out: np.ndarray, starts: list[int], lengths: list[int], spec: ActuatorSpec,
+def _max_window_mean_square(x: np.ndarray, win: int, *, chunk: int = 1 << 18) -> float:
+    """The largest mean of ``x**2`` over ``win`` consecutive samples, ``chunk`` windows at a time (bounded memory;
+    each chunk's running sum starts afresh, so rounding does not build up along a long timeline)."""
+    best = 0.0
+    for lo in range(0, x.size - win + 1, chunk):
+        seg = x[lo:lo + chunk + win - 1]
+        sums = np.concatenate([[0.0], np.cumsum(seg * seg)])
+        best = max(best, float(np.max(sums[win:] - sums[:-win])))
+    return best / win
+
+
+def excess(out: np.ndarray, starts: list[int], lengths: list[int], spec: ActuatorSpec,
             threshold: float) -> dict | None:
     """How far the output timeline goes past the hard limits (None: within them)."""
     hard, rate = spec.limits, spec.rate_hz
     found = {}
-    if out.size and np.max(np.abs(out)) > hard.peak * (1 + 1e-9):
-        found["peak"] = float(np.max(np.abs(out)))
+    magnitude = np.abs(out)
+    if out.size and magnitude.max() > hard.peak * (1 + 1e-9):
+        found["peak"] = float(magnitude.max())
+    on = magnitude > threshold
+    del magnitude  # the timeline is about a minute at 48 kHz: few temporaries of its size at once
     win = max(1, int(round(hard.rms_window_s * rate)))
-    sq = np.concatenate([[0.0], np.cumsum(out * out)])
     if out.size >= win:
-        worst = float(np.sqrt(np.max(sq[win:] - sq[:-win]) / win))
+        worst = float(np.sqrt(_max_window_mean_square(out, win)))
         if worst > hard.rms * (1 + 1e-9):
             found["rms"] = worst
-    on = np.abs(out) > threshold
     if hard.max_on_s is not None:
         worst_on = max((int(np.count_nonzero(on[s:s + n])) for s, n in zip(starts, lengths)), default=0) / rate
         if worst_on > hard.max_on_s + 1.0 / rate:
@@ -128,11 +140,12 @@ def check_limits(overrides: int, signals_per_override: int, *, seed: int = 0,
         timeline = np.zeros(clock)
         for start, out in blocks:
             timeline[start:start + out.shape[-1]] = out
-        excess = _excess(timeline, starts, lengths, spec, limiter.on_threshold)
+        del blocks, out
+        found = excess(timeline, starts, lengths, spec, limiter.on_threshold)
         res.overrides += 1
-        if excess:
+        if found:
             res.violations += 1
-            res.worst = res.worst or {"actuator": name, "override": k, "limits": repr(limits), **excess}
+            res.worst = res.worst or {"actuator": name, "override": k, "limits": repr(limits), **found}
         if progress:
             progress(1)
     return res
