@@ -23,7 +23,8 @@ def fuzz(
 ):
     """Fuzz the input gates: every mutant must be accepted or refused in one line under 300 characters, within
     the time limit, never with a traceback; and random profiles, gains and limit overrides must never take the
-    output past an actuator's hard limits. Prints the counts; exit code 1 if anything failed."""
+    output past an actuator's hard limits. Prints the counts; exit code 1 if anything failed. The peak RSS column
+    is the process's high-water mark so far: name one gate to measure that gate alone."""
     from ..fuzz.gates import gates as installed
     from ..fuzz.limits import check_limits
     from ..fuzz.runner import fuzz_gate, peak_rss_mb
