@@ -42,7 +42,7 @@ from .signal import Signal, valid_number, valid_velocity
 
 log = logging.getLogger(__name__)
 
-COUNTS = ("submitted", "queued", "dropped_queue_full", "rendered", "failed", "cancelled", "callback_errors")
+OUTPUT_COUNTS = ("queued", "dropped_queue_full", "rendered", "failed", "cancelled")
 LATENCIES_KEPT = 10_000  # per output, for the latency figures in stats()
 
 
@@ -102,11 +102,16 @@ class _Output:
         self.limiter = SafetyLimiter(limits, actuator.spec.rate_hz) if shared else None
         self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self.stop = threading.Event()
-        self.counts = dict.fromkeys(("queued", "dropped_queue_full", "rendered", "failed", "cancelled"), 0)
+        self.counts = dict.fromkeys(OUTPUT_COUNTS, 0)
         self.errors: dict[str, int] = {}
         self.latencies: deque[float] = deque(maxlen=LATENCIES_KEPT)
         self.failing: str | None = None  # the device error of its last impact, until one plays again
         self.worker: threading.Thread | None = None
+
+
+def _pending(counts: dict) -> int:
+    """Impacts queued and not yet played, failed or cancelled (waiting, or rendering now)."""
+    return counts["queued"] - counts["rendered"] - counts["failed"] - counts["cancelled"]
 
 
 def _latency_summary(values) -> dict | None:
@@ -140,8 +145,7 @@ class Engine:
         self._route: dict[str, _Output] = {}
         self._build(device, registry, size)
         self._lock = threading.Lock()
-        self._counts = dict.fromkeys(COUNTS, 0)
-        self._errors: dict[str, int] = {}
+        self._callback_errors = 0
         self._close_errors: dict[str, str] = {}
         self._last: deque[Played] = deque(maxlen=int(valid_number(keep_last, name="keep_last", minimum=0)))
         self._log = RateLimitedLog(log)
@@ -217,15 +221,12 @@ class Engine:
         with self._lock:
             if self._closed:  # checked under the lock: nothing is queued once close() began
                 raise HapticfxError("the engine is closed")
-            self._counts["submitted"] += 1
             try:
                 out.queue.put_nowait(job)
             except queue.Full:
-                self._counts["dropped_queue_full"] += 1
                 out.counts["dropped_queue_full"] += 1
                 queued = False
             else:
-                self._counts["queued"] += 1
                 out.counts["queued"] += 1
                 queued = True
         if not queued:
@@ -255,8 +256,8 @@ class Engine:
                     self.on_played(playback)
                 except Exception:  # the caller's callback: counted apart, the impact was played
                     with self._lock:
-                        self._counts["callback_errors"] += 1
-                        first = self._counts["callback_errors"] == 1
+                        self._callback_errors += 1
+                        first = self._callback_errors == 1
                     if first:
                         log.exception("on_played raised (further errors are counted, not logged)")
 
@@ -277,7 +278,6 @@ class Engine:
         playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,
                             job.received, started, time.perf_counter(), delivery, signal)
         with self._lock:
-            self._counts["rendered"] += 1
             out.counts["rendered"] += 1
             out.latencies.append(playback.latency_s)
             out.failing = None
@@ -287,8 +287,6 @@ class Engine:
     def _failed(self, out: _Output, job: _Job, exc: Exception) -> None:
         kind = type(exc).__name__
         with self._lock:
-            self._counts["failed"] += 1
-            self._errors[kind] = self._errors.get(kind, 0) + 1
             out.counts["failed"] += 1
             out.errors[kind] = out.errors.get(kind, 0) + 1
             if isinstance(exc, DeviceError):
@@ -310,18 +308,24 @@ class Engine:
         (for example voices cut short by a full mixer), by reason.
         """
         with self._lock:
-            out = dict(self._counts)
-            out["errors"] = dict(self._errors)
-            if self._close_errors:
-                out["close_errors"] = dict(self._close_errors)
             per = {name: (dict(o.counts), dict(o.errors), list(o.latencies), o.failing) for name, o in self._outputs.items()}
-        out["pending"] = out["queued"] - out["rendered"] - out["failed"] - out["cancelled"]  # queued or rendering
+            callback_errors, close_errors = self._callback_errors, dict(self._close_errors)
+        totals = {k: sum(counts[k] for counts, _, _, _ in per.values()) for k in OUTPUT_COUNTS}
+        out = {"submitted": totals["queued"] + totals["dropped_queue_full"], **totals, "callback_errors": callback_errors}
+        by_kind: dict[str, int] = {}
+        for _, kinds, _, _ in per.values():
+            for kind, n in kinds.items():
+                by_kind[kind] = by_kind.get(kind, 0) + n
+        out["errors"] = by_kind
+        if close_errors:
+            out["close_errors"] = close_errors
+        out["pending"] = _pending(out)
         latency = _latency_summary(v for _, _, lat, _ in per.values() for v in lat)
         if latency:
             out["latency_ms"] = latency
         outputs = {}
         for name, (counts, errors, lat, failing) in per.items():
-            entry = {**counts, "pending": counts["queued"] - counts["rendered"] - counts["failed"] - counts["cancelled"]}
+            entry = {**counts, "pending": _pending(counts)}
             if errors:
                 entry["errors"] = errors
             if failing:
@@ -392,7 +396,6 @@ class Engine:
                 break
             n += 1
         with self._lock:
-            self._counts["cancelled"] += n
             out.counts["cancelled"] += n
 
     def __enter__(self):
