@@ -179,6 +179,8 @@ class Engine:
             for out in self._outputs.values():
                 out.actuator.open()
                 opened.append(out)
+            for pipeline in self._pipelines.values():
+                pipeline.warm()
         except BaseException:
             for out in opened:
                 out.actuator.close()

@@ -10,10 +10,11 @@ from __future__ import annotations
 import abc
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, Hashable, NamedTuple
 
 import numpy as np
 
+from .errors import SignalError
 from .signal import Signal, valid_number, valid_velocity
 
 if TYPE_CHECKING:
@@ -40,6 +41,58 @@ class Profile(NamedTuple):
 
     velocity: float
     samples: np.ndarray
+
+
+class Term(NamedTuple):
+    """One fixed atom of a profile and its weight; ``key`` names these samples for as long as their owner lives."""
+
+    key: Hashable
+    weight: float
+    samples: np.ndarray
+
+
+@dataclass(frozen=True)
+class Terms:
+    """A profile as a weighted sum of fixed atoms at ``rate_hz``: ``sum(t.weight * t.samples)``.
+
+    Shaping is linear, so a pipeline shapes each atom once (under its key) and
+    renders an impact by summing the shaped atoms with these weights: no filter
+    or resampler runs per impact. Every atom is 1D and of one length.
+    """
+
+    rate_hz: float
+    items: tuple[Term, ...]
+
+    def __post_init__(self):
+        if not self.items:
+            raise SignalError("a profile needs at least one term")
+        shape = self.items[0].samples.shape
+        for t in self.items:
+            if t.samples.ndim != 1 or t.samples.shape != shape:
+                raise SignalError(f"the terms of one profile are 1D and of one length; got {shape} and {t.samples.shape}")
+            valid_number(t.weight, name=f"weight of term {t.key!r}")
+
+    def profile(self) -> Signal:
+        """The profile itself: the weighted sum of the atoms."""
+        out = self.items[0].weight * self.items[0].samples
+        for t in self.items[1:]:
+            out += t.weight * t.samples
+        return Signal(out, self.rate_hz)
+
+
+class Blend(NamedTuple):
+    """A profile between two neighbours: ``lower * lower.samples + upper * upper.samples`` plus ``extra`` atoms."""
+
+    lower: float
+    upper: float
+    extra: tuple[Term, ...] = ()
+
+    def of(self, lower: Profile, upper: Profile) -> np.ndarray:
+        """The profile's samples."""
+        out = self.lower * lower.samples + self.upper * upper.samples
+        for t in self.extra:
+            out += t.weight * t.samples
+        return out
 
 
 class Reducer(abc.ABC):
@@ -89,6 +142,14 @@ class Interpolator(abc.ABC):
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
         """Return the profile at ``velocity`` (``lower.velocity <= velocity <= upper.velocity``)."""
 
+    def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
+        """``interpolate``'s answer as a :class:`Blend` of fixed atoms, or None (the default) when it is not one."""
+        return None
+
+    def atoms(self, bank: "ProfileBank") -> tuple[Term, ...]:
+        """Every extra atom ``blend`` can name between neighbours of ``bank`` (shaped ahead); default none."""
+        return ()
+
     def save(self, path: Path) -> None:
         """Write learnt state to ``path``. Default: nothing to save."""
 
@@ -108,6 +169,15 @@ class Model(abc.ABC):
     @abc.abstractmethod
     def render(self, impact: Impact) -> Signal:
         """Return the impact profile for ``impact``."""
+
+    def terms(self, impact: Impact) -> Terms | None:
+        """``render``'s profile as :class:`Terms` of fixed atoms, or None (the default) when it is not such a sum."""
+        return None
+
+    def atoms(self) -> Terms | None:
+        """Every atom ``terms`` can name for the effect's own object (weights unused), shaped when the effect
+        opens rather than at its first impact; None (the default): none known ahead."""
+        return None
 
     def describe(self) -> dict:
         """What this model loaded (for ``hapticfx info``)."""

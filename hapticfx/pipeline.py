@@ -20,7 +20,7 @@ from .interfaces import Actuator, Impact, Model
 from .params import BuildContext
 from .registry import Registry, get_registry
 from .safety import LimiterReport, SafetyLimiter
-from .shaping import shape
+from .shaping import ShapedAtoms, shape
 from .signal import Signal, valid_velocity
 
 
@@ -92,6 +92,7 @@ class Pipeline:
         self.gain = effect.actuator.gain if effect.actuator.gain is not None else spec.default_gain
         units = getattr(self.model, "units", "g")
         self.scale = 1.0 / effect.actuator.full_scale_g if units == "g" else 1.0
+        self.atoms = ShapedAtoms(gain=self.gain, scale=self.scale)  # the model's atoms, shaped for the actuator
         self._lock = threading.Lock()
         self._opened = False
         self._t0 = time.monotonic()
@@ -108,7 +109,15 @@ class Pipeline:
         if not self._opened:
             self.actuator.open()
             self._opened = True
+            self.warm()
         return self
+
+    def warm(self) -> None:
+        """Shape the model's atoms for the actuator as it is now (opened: at its agreed rate), so that the
+        first impacts cost what every later one does."""
+        atoms = self.model.atoms()
+        if atoms is not None:
+            self.atoms.warm(atoms, self.actuator.spec)
 
     def close(self) -> None:
         if self._opened:
@@ -129,8 +138,13 @@ class Pipeline:
     def render(self, impact: Impact | None = None, *, velocity: float | None = None, object: str | None = None) -> Delivery:
         """Model, shaping and safety limiter, without playing."""
         impact = impact or self._impact(velocity, object)
-        profile = self.model.render(impact)
-        shaped = shape(profile, self.actuator.spec, gain=self.gain, scale=self.scale)
+        terms = self.model.terms(impact)
+        if terms is None:
+            profile = self.model.render(impact)
+            shaped = shape(profile, self.actuator.spec, gain=self.gain, scale=self.scale)
+        else:
+            profile = terms.profile()
+            shaped = self.atoms.shape(terms, self.actuator.spec)
         with self._lock:
             out = self.limiter.process(shaped.samples, at_s=impact.time_s)
             report = self.limiter.report()

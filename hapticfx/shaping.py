@@ -12,8 +12,11 @@ limiter comes after this, always.
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
+
 from .dsp import causal_butterworth, rate_ratio, resample_rate, taper
-from .interfaces import ActuatorSpec
+from .interfaces import ActuatorSpec, Term, Terms
 from .signal import Signal, valid_number
 
 FADE_IN_S = 0.002   # shorter than any onset a model puts after its first sample
@@ -50,3 +53,59 @@ def shape(profile: Signal, spec: ActuatorSpec, *, gain: float, scale: float) -> 
         out = band_limit(out, spec.band_hz)
         out = out.with_samples(taper(out.samples, out.rate_hz, fade_in_s=FADE_IN_S, fade_out_s=FADE_OUT_S))
     return resample(out, spec.rate_hz)
+
+
+ATOM_CACHE_BYTES = 64 << 20  # shaped atoms kept per pipeline; the least recently used go first
+
+
+class ShapedAtoms:
+    """Shapes a profile given as :class:`~hapticfx.interfaces.Terms` by summing shaped atoms.
+
+    Every step of :func:`shape` is linear (a gain, a causal filter from rest, fixed
+    fades over a fixed length, a polyphase resampler), so the shaped sum of atoms is
+    the sum of the shaped atoms. Each atom is shaped once per actuator spec and kept
+    under its key (up to :data:`ATOM_CACHE_BYTES`); an impact then costs a weighted
+    sum at the actuator's rate. Thread-safe.
+    """
+
+    def __init__(self, *, gain: float, scale: float, max_bytes: int = ATOM_CACHE_BYTES):
+        self.gain = gain
+        self.scale = scale
+        self.max_bytes = max_bytes
+        self._spec: ActuatorSpec | None = None
+        self._atoms: OrderedDict = OrderedDict()
+        self._bytes = 0
+        self._lock = threading.Lock()
+
+    def _atom(self, term: Term, rate_hz: float, spec: ActuatorSpec) -> Signal:
+        with self._lock:
+            if spec != self._spec:  # the actuator agreed on another rate when it opened
+                self._atoms.clear()
+                self._bytes = 0
+                self._spec = spec
+            found = self._atoms.get(term.key)
+            if found is not None:
+                self._atoms.move_to_end(term.key)
+                return found
+        shaped = shape(Signal(term.samples, rate_hz), spec, gain=self.gain, scale=self.scale)
+        with self._lock:
+            if spec == self._spec and term.key not in self._atoms:
+                self._atoms[term.key] = shaped
+                self._bytes += shaped.samples.nbytes
+                while self._bytes > self.max_bytes and len(self._atoms) > 1:
+                    self._bytes -= self._atoms.popitem(last=False)[1].samples.nbytes
+        return shaped
+
+    def warm(self, atoms: Terms, spec: ActuatorSpec) -> None:
+        """Shape every atom of ``atoms`` now, ahead of the impacts that will use them."""
+        for term in atoms.items:
+            self._atom(term, atoms.rate_hz, spec)
+
+    def shape(self, terms: Terms, spec: ActuatorSpec) -> Signal:
+        """``shape(terms.profile(), spec, ...)``, from the shaped atoms."""
+        first, *rest = terms.items
+        atom = self._atom(first, terms.rate_hz, spec)
+        out = first.weight * atom.samples
+        for term in rest:
+            out += term.weight * self._atom(term, terms.rate_hz, spec).samples
+        return Signal(out, atom.rate_hz)

@@ -21,15 +21,23 @@ STAGES = ("model", "shaping", "limiter", "whole render")
 
 
 def _time_stages(pipeline, velocity: float) -> tuple[float, float, float, float]:
-    """Seconds of model, shaping and limiter for one impact, and of ``Pipeline.render`` itself."""
+    """Seconds of model, shaping and limiter for one impact, and of ``Pipeline.render`` itself.
+
+    As the pipeline renders: a model that answers with terms is timed for them and its
+    profile, and shaping is the sum of its shaped atoms; any other is shaped per impact.
+    """
     from ..interfaces import Impact
     from ..shaping import shape
 
     impact = Impact(pipeline.effect.object_id, velocity)
     t0 = time.perf_counter()
-    profile = pipeline.model.render(impact)
+    terms = pipeline.model.terms(impact)
+    profile = pipeline.model.render(impact) if terms is None else terms.profile()
     t1 = time.perf_counter()
-    shaped = shape(profile, pipeline.actuator.spec, gain=pipeline.gain, scale=pipeline.scale)
+    if terms is None:
+        shaped = shape(profile, pipeline.actuator.spec, gain=pipeline.gain, scale=pipeline.scale)
+    else:
+        shaped = pipeline.atoms.shape(terms, pipeline.actuator.spec)
     t2 = time.perf_counter()
     pipeline.limiter.process(shaped.samples)
     t3 = time.perf_counter()
@@ -68,6 +76,8 @@ def render(
             typer.echo(f"skipped direct ConvBiLSTM inference: {exc}", err=True)
     # A fresh velocity for every render (no per-velocity cache can answer it); effects take turns, so a change
     # in machine load falls on all of them alike.
+    for pipeline in pipelines.values():
+        pipeline.warm()  # as opening does
     velocities = np.random.default_rng(0).uniform(2.45, 5.2, size=repeats + 5)
     times: dict[str, list[tuple]] = {label: [] for label in pipelines}
     with Progress(len(velocities), "render", unit="rounds (5 warm-up)") as bar:

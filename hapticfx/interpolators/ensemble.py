@@ -31,10 +31,10 @@ import numpy as np
 
 from ..atomic import user_path
 from ..errors import DatasetError, SignalError
-from ..interfaces import Interpolator, Profile, TrainingData
-from ..signal import valid_number, valid_signal, valid_velocity
+from ..interfaces import Blend, Interpolator, Profile, Term, TrainingData
+from ..signal import valid_number
 from .residual import scale
-from .table import Interval, VelocityTable
+from .table import Interval, VelocityTable, neighbours
 
 TRIMS = (0.0, 0.1, 0.2, 0.3, 0.4)
 FALLBACK_TRIM = 0.4  # a median-like centre, when no velocity has neighbours on both sides to choose by
@@ -165,16 +165,18 @@ class EnsembleInterpolator(Interpolator):
         return fit_table(training_data(dataset, bank.reducer), trim=self.trim)
 
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
-        v = valid_velocity(velocity)
-        lo = Profile(valid_velocity(lower.velocity), valid_signal(lower.samples, name="lower profile", ndim=1))
-        hi = Profile(valid_velocity(upper.velocity), valid_signal(upper.samples, name="upper profile", ndim=1))
-        if not lo.velocity < hi.velocity or not lo.velocity <= v <= hi.velocity:
-            raise SignalError(f"velocity {v} m/s must lie between the neighbours {lo.velocity} and {hi.velocity} m/s")
-        hit = None if self.table is None else self.table.lookup(lo, hi, v)
-        if hit is None:
+        lo, hi, v = neighbours(lower, upper, velocity)
+        found = self.blend(lo, hi, v)
+        if found is None:
             raise SignalError(f"ensemble: no fitted drops for the neighbours at {lo.velocity:g} and {hi.velocity:g} "
                               "m/s; prepare() the interpolator with their bank first")
-        return hit
+        return found.of(lo, hi)
+
+    def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
+        return None if self.table is None else self.table.blend(*neighbours(lower, upper, velocity))
+
+    def atoms(self, bank) -> tuple[Term, ...]:
+        return () if self.table is None else self.table.atoms(bank)
 
     def describe(self) -> dict:
         return {} if self.table is None else {"served_from": self.table.describe(),

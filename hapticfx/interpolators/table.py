@@ -37,9 +37,10 @@ import numpy as np
 
 from ..atomic import atomic_path
 from ..data.dataset import UNREADABLE
-from ..errors import CheckpointError, one_line
-from ..interfaces import Profile
-from .residual import bump, compose, weight
+from ..errors import CheckpointError, SignalError, one_line
+from ..interfaces import Blend, Profile, Term
+from ..signal import valid_signal, valid_velocity
+from .residual import bump, scale, weight
 
 FORMAT = "hapticfx-interpolator-table"
 VERSION = 1
@@ -69,6 +70,18 @@ def _key(lower: Profile, upper: Profile) -> tuple:
     return (float(lower.velocity), float(upper.velocity), hash(lower.samples.tobytes()), hash(upper.samples.tobytes()))
 
 
+def neighbours(lower: Profile, upper: Profile, velocity: float) -> tuple[Profile, Profile, float]:
+    """The gate of a table-served interpolator: finite 1D neighbours of one length, ``velocity`` between them."""
+    v = valid_velocity(velocity)
+    lo = Profile(valid_velocity(lower.velocity), valid_signal(lower.samples, name="lower profile", ndim=1))
+    hi = Profile(valid_velocity(upper.velocity), valid_signal(upper.samples, name="upper profile", ndim=1))
+    if not lo.velocity < hi.velocity or not lo.velocity <= v <= hi.velocity:
+        raise SignalError(f"velocity {v} m/s must lie between the neighbours {lo.velocity} and {hi.velocity} m/s")
+    if lo.samples.shape != hi.samples.shape:
+        raise SignalError(f"neighbour profiles differ in length: {lo.samples.shape} vs {hi.samples.shape}")
+    return lo, hi, v
+
+
 @dataclass(frozen=True)
 class Interval:
     """The residual of one recorded interval at nodes ``w`` (0 first, 1 last, increasing)."""
@@ -81,14 +94,20 @@ class Interval:
         np.fill_diagonal(diff, 1.0)
         object.__setattr__(self, "_bary", 1.0 / diff.prod(axis=1))
 
-    def at(self, w: float) -> np.ndarray:
-        """The residual at ``w`` (barycentric interpolation through the nodes; a line for two nodes)."""
+    def coefficients(self, w: float) -> np.ndarray:
+        """The weight of each node's residual at ``w`` (barycentric; one at a node, zero elsewhere)."""
         d = w - self.w
         hit = np.flatnonzero(d == 0.0)
         if hit.size:
-            return self.residual[hit[0]]
+            c = np.zeros(self.w.size)
+            c[hit[0]] = 1.0
+            return c
         c = self._bary / d
-        return (c @ self.residual) / c.sum()
+        return c / c.sum()
+
+    def at(self, w: float) -> np.ndarray:
+        """The residual at ``w`` (the polynomial through the nodes; a line for two nodes)."""
+        return self.coefficients(w) @ self.residual
 
 
 class VelocityTable:
@@ -103,7 +122,7 @@ class VelocityTable:
         self.meta = meta
         self.intervals = intervals
         self.path = path
-        self._index: dict[tuple, Interval] = {}
+        self._index: dict[tuple, tuple[str, int, Interval]] = {}
 
     @classmethod
     def of(cls, banks: dict, intervals: dict[str, list[Interval]], *, interpolator: str, source: dict, dataset: str,
@@ -151,15 +170,30 @@ class VelocityTable:
             raise CheckpointError(f"{self.where}: stale: the bank of {bank.object!r} changed since the table was "
                                   f"built; {rebuild}")
         for i, iv in enumerate(self.intervals[bank.object]):
-            self._index[_key(bank[i], bank[i + 1])] = iv
+            self._index[_key(bank[i], bank[i + 1])] = (bank.object, i, iv)
+
+    def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
+        """The profile at ``velocity`` between two attached neighbours as a :class:`Blend` of the neighbours and
+        the interval's residual nodes (``residual.compose`` written out), or None for unknown neighbours."""
+        found = self._index.get(_key(lower, upper))
+        if found is None:
+            return None
+        obj, i, iv = found
+        w = float(weight(lower.velocity, upper.velocity, velocity))
+        k = float(bump(w) * scale(lower.samples, upper.samples))
+        extra = tuple(Term(("table", obj, i, j), k * float(c), iv.residual[j])
+                      for j, c in enumerate(iv.coefficients(w)) if c) if k else ()
+        return Blend(1.0 - w, w, extra)
+
+    def atoms(self, bank) -> tuple[Term, ...]:
+        """Every residual node :meth:`blend` can name between neighbours of ``bank`` (attached)."""
+        return tuple(Term(("table", bank.object, i, j), 1.0, row)
+                     for i, iv in enumerate(self.intervals.get(bank.object, ())) for j, row in enumerate(iv.residual))
 
     def lookup(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray | None:
         """The profile at ``velocity`` between two attached neighbours, or None for unknown neighbours."""
-        iv = self._index.get(_key(lower, upper))
-        if iv is None:
-            return None
-        w = float(weight(lower.velocity, upper.velocity, velocity))
-        return compose(lower.samples, upper.samples, w, iv.at(w))
+        found = self.blend(lower, upper, velocity)
+        return None if found is None else found.of(lower, upper)
 
     # -- file -----------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:

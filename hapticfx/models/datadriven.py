@@ -11,7 +11,7 @@ import numpy as np
 
 from ..data.dataset import Dataset, open_dataset
 from ..errors import EffectError, HapticfxError, SignalError, preview
-from ..interfaces import Impact, Interpolator, Model
+from ..interfaces import Impact, Interpolator, Model, Term, Terms
 from ..params import BuildContext, doc
 from ..registry import get_registry
 from ..signal import Signal
@@ -77,31 +77,58 @@ class DataDrivenModel(Model):
                 self._prepared.add(object_id)
         return bank
 
-    def profile(self, object_id: str, velocity: float) -> np.ndarray:
+    def terms(self, impact: Impact) -> Terms | None:
+        """The profile as recorded profiles (and the interpolator's atoms) with weights; None when the
+        interpolator's answer between two neighbours is no fixed sum (direct network inference)."""
+        return self._terms(impact.object or self.context.object_id, impact.velocity)
+
+    def atoms(self) -> Terms | None:
+        object_id = self.context.object_id
+        if not object_id:
+            return None
+        bank = self.bank(object_id)
+        items = [self._recorded(bank, i, 1.0) for i in range(len(bank))]
+        items += [Term(("interpolator", t.key), 1.0, t.samples) for t in self.interpolator.atoms(bank)]
+        return Terms(self.dataset.rate_hz, tuple(items))
+
+    def _recorded(self, bank, i: int, weight: float) -> Term:
+        return Term(("bank", bank.object, i), weight, bank.profiles[i])
+
+    def _terms(self, object_id: str, velocity: float) -> Terms | None:
         bank = self.bank(object_id)
         i = bank.index_of(velocity)
         if i is not None:
-            return bank.profiles[i].copy()
+            return Terms(self.dataset.rate_hz, (self._recorded(bank, i, 1.0),))
         lo, hi = float(bank.velocities[0]), float(bank.velocities[-1])
         if lo < velocity < hi:
-            lower, upper = bank.neighbours(velocity)
-            out = np.asarray(self.interpolator.interpolate(lower, upper, velocity), dtype=np.float64)
-            if out.shape != lower.samples.shape or not np.all(np.isfinite(out)):
-                raise HapticfxError(
-                    f"interpolator {self.params.interpolator!r} returned an invalid profile "
-                    f"(shape {out.shape}, finite={bool(np.all(np.isfinite(out)))}) at {velocity} m/s"
-                )
-            return out
+            k = int(np.searchsorted(bank.velocities, velocity, side="right"))
+            blend = self.interpolator.blend(bank[k - 1], bank[k], velocity)
+            if blend is None:
+                return None
+            extra = tuple(Term(("interpolator", t.key), t.weight, t.samples) for t in blend.extra)
+            return Terms(self.dataset.rate_hz, (self._recorded(bank, k - 1, blend.lower),
+                                                self._recorded(bank, k, blend.upper), *extra))
         if self.params.outside == "refuse":
             raise SignalError(
                 f"velocity {velocity} m/s is outside the recorded range [{lo}, {hi}] of {object_id!r} "
                 "(model.outside is 'refuse')"
             )
         edge = 0 if velocity < lo else len(bank) - 1
-        ref = bank.profiles[edge].copy()
-        if self.params.outside == "scale":
-            ref *= velocity / bank.velocities[edge]
-        return ref
+        weight = velocity / bank.velocities[edge] if self.params.outside == "scale" else 1.0
+        return Terms(self.dataset.rate_hz, (self._recorded(bank, edge, float(weight)),))
+
+    def profile(self, object_id: str, velocity: float) -> np.ndarray:
+        terms = self._terms(object_id, velocity)
+        if terms is not None:
+            return terms.profile().samples
+        lower, upper = self.bank(object_id).neighbours(velocity)
+        out = np.asarray(self.interpolator.interpolate(lower, upper, velocity), dtype=np.float64)
+        if out.shape != lower.samples.shape or not np.all(np.isfinite(out)):
+            raise HapticfxError(
+                f"interpolator {self.params.interpolator!r} returned an invalid profile "
+                f"(shape {out.shape}, finite={bool(np.all(np.isfinite(out)))}) at {velocity} m/s"
+            )
+        return out
 
     def render(self, impact: Impact) -> Signal:
         object_id = impact.object or self.context.object_id

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import EffectError
-from ..interfaces import Impact, Model
+from ..interfaces import Impact, Model, Term, Terms
 from ..objects import known_object
 from ..params import BuildContext, doc
 from ..signal import Signal
@@ -42,6 +42,11 @@ class KineticEnergyModel(Model):
                 f"pulse_ms {params.pulse_ms} is longer than duration_ms {params.duration_ms}",
                 source=context.source, key="model.pulse_ms",
             )
+        n = max(1, int(round(params.duration_ms * params.rate_hz / 1000.0)))
+        width = int(round(params.pulse_ms * params.rate_hz / 1000.0))
+        self._pulse = np.zeros(n)
+        self._pulse[1 : 1 + width] = 1.0  # sample 0 is t = 0
+        self._pulse.setflags(write=False)
         if params.mass_kg is None and context.object_info is None:
             raise EffectError(
                 "the kinetic-energy model needs a mass: describe the object with mass_kg, or set model.mass_kg",
@@ -59,13 +64,15 @@ class KineticEnergyModel(Model):
         return float(np.clip(ke / self.params.ke_max_j, 0.0, 1.0))
 
     def render(self, impact: Impact) -> Signal:
-        p = self.params
-        n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
-        width = int(round(p.pulse_ms * p.rate_hz / 1000.0))
-        out = np.zeros(n)
-        # Eq. 11: f(t) = A for 0 < t < b; sample 0 is t = 0.
-        out[1 : 1 + width] = self.amplitude(impact.velocity, self.mass_for(impact.object))
-        return Signal(out, p.rate_hz)
+        return self.terms(impact).profile()
+
+    def terms(self, impact: Impact) -> Terms:
+        """Eq. 11: ``f(t) = A`` for ``0 < t < b``: the unit pulse with weight ``A``."""
+        return Terms(self.params.rate_hz, (Term("pulse", self.amplitude(impact.velocity, self.mass_for(impact.object)),
+                                                 self._pulse),))
+
+    def atoms(self) -> Terms:
+        return Terms(self.params.rate_hz, (Term("pulse", 1.0, self._pulse),))
 
     def describe(self) -> dict:
         return {"model": self.name, "ke_max_j": self.params.ke_max_j, "pulse_ms": self.params.pulse_ms}

@@ -16,9 +16,9 @@ import numpy as np
 
 from hapticfx.atomic import user_path
 from hapticfx.errors import CheckpointError, SignalError
-from hapticfx.interfaces import Interpolator, Profile, TrainingData
-from hapticfx.interpolators.table import VelocityTable
-from hapticfx.signal import valid_number, valid_signal, valid_velocity
+from hapticfx.interfaces import Blend, Interpolator, Profile, Term, TrainingData
+from hapticfx.interpolators.table import VelocityTable, neighbours
+from hapticfx.signal import valid_number
 
 from . import checkpoint
 from .samples import stack_triples
@@ -159,18 +159,19 @@ class NeuralInterpolator(Interpolator):
         return predict(self.net, self.meta, triples)
 
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
-        v = valid_velocity(velocity)
-        lo = Profile(valid_velocity(lower.velocity), valid_signal(lower.samples, name="lower profile", ndim=1))
-        hi = Profile(valid_velocity(upper.velocity), valid_signal(upper.samples, name="upper profile", ndim=1))
-        if not lo.velocity < hi.velocity or not lo.velocity <= v <= hi.velocity:
-            raise SignalError(f"velocity {v} m/s must lie between the neighbours {lo.velocity} and {hi.velocity} m/s")
-        if lo.samples.shape != hi.samples.shape:
-            raise SignalError(f"neighbour profiles differ in length: {lo.samples.shape} vs {hi.samples.shape}")
+        lo, hi, v = neighbours(lower, upper, velocity)
         if self.table is not None:
             hit = self.table.lookup(lo, hi, v)
             if hit is not None:
                 return hit
         return self.predict(stack_triples([(lo, hi, v, None)], ["?"]))[0]
+
+    def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
+        """The table's answer as a blend of fixed atoms; None when inference runs directly (``cache: false``)."""
+        return None if self.table is None else self.table.blend(*neighbours(lower, upper, velocity))
+
+    def atoms(self, bank) -> tuple[Term, ...]:
+        return () if self.table is None else self.table.atoms(bank)
 
     def describe(self) -> dict:
         if self.table is not None:
