@@ -94,12 +94,13 @@ class _Job:
 
 
 class _Output:
-    """One opened actuator: its queue, its worker, and (when effects share it) a limiter on their sum."""
+    """One opened actuator: its queue, its worker, and (when effects share it and the actuator does not limit
+    its own mix) a limiter on their sum."""
 
     def __init__(self, name: str, actuator: Actuator, shared: bool, limits, queue_size: int):
         self.name = name
         self.actuator = actuator
-        self.limiter = SafetyLimiter(limits, actuator.spec.rate_hz) if shared else None
+        self.limiter = SafetyLimiter(limits, actuator.spec.rate_hz) if shared and not actuator.limits_mix else None
         self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self.stop = threading.Event()
         self.counts = dict.fromkeys(OUTPUT_COUNTS, 0)

@@ -280,6 +280,9 @@ class Actuator(abc.ABC):
 
     name: ClassVar[str]
     spec: ActuatorSpec
+    # True when the actuator sums overlapping impacts itself and runs a SafetyLimiter with its ``limits`` on the
+    # sum it outputs (a sound card's mixing stream): an engine then leaves the sum of its effects to it.
+    limits_mix: ClassVar[bool] = False
 
     def open(self) -> None:
         """Acquire the device. Raises :class:`hapticfx.errors.DeviceError` if it is absent."""

@@ -48,6 +48,7 @@ class SoundCardActuator(Actuator):
     """
 
     Params = SoundCardParams
+    limits_mix = True  # the stream's mixer limits each channel's sum with this actuator's limits
     name: ClassVar[str]
     band_hz: ClassVar[tuple[float, float]]
     volts_peak: ClassVar[float]

@@ -178,3 +178,34 @@ def test_an_effect_played_through_the_pipeline_is_heard_as_rendered(soundserver,
     got, _ = align(cap, sent)
     assert corr(got, sent) > 0.999
     assert np.sqrt(np.mean(got ** 2)) / np.sqrt(np.mean(sent ** 2)) == pytest.approx(1.0, abs=0.01)
+
+
+def test_effects_sharing_a_sound_card_are_limited_on_their_mix(soundserver, tmp_path):
+    from pathlib import Path
+
+    from hapticfx.engine import Engine
+
+    effects = Path(__file__).resolve().parents[3] / "effects"
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"""name: shared
+actuators:
+  helmet: {{type: vibro-transducer, device: default, limits: {{peak: 0.3}}}}
+effects:
+  brick: {{effect: {str(effects / 'falling_brick.yaml')!r}, actuator: helmet}}
+  pulse: {{effect: {str(effects / 'falling_brick_kinetic.yaml')!r}, actuator: helmet}}
+""")
+    played = []
+    with LoopbackRecorder(RATE) as rec:
+        with Engine(scene, on_played=played.append) as engine:
+            (out,) = engine._outputs.values()
+            assert out.actuator.limits_mix and out.limiter is None  # the mixer limits the sum, not the engine
+            time.sleep(0.1)
+            for _ in range(3):  # each impact within 0.3 on its own, the six together far above it
+                engine.impact("brick", 5.2)
+                engine.impact("pulse", 7.0)
+            time.sleep(0.8)
+            report = out.actuator.limiter_report()
+    x = np.concatenate([b for _, b in rec.capture.blocks])[:, 0]
+    assert all(p.signal.peak <= 0.3 + 1e-12 for p in played) and len(played) == 6
+    assert 0.25 < np.max(np.abs(x)) <= 0.3 + 1e-6
+    assert report.peak_events > 0
