@@ -173,7 +173,7 @@ class EnsembleInterpolator(Interpolator):
         return found.of(lo, hi)
 
     def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
-        return None if self.table is None else self.table.blend(*neighbours(lower, upper, velocity))
+        return None if self.table is None else self.table.blend(lower, upper, velocity)
 
     def atoms(self, bank) -> tuple[Term, ...]:
         return () if self.table is None else self.table.atoms(bank)

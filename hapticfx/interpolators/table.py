@@ -40,7 +40,7 @@ from ..data.dataset import UNREADABLE
 from ..errors import CheckpointError, SignalError, one_line
 from ..interfaces import Blend, Profile, Term
 from ..signal import valid_signal, valid_velocity
-from .residual import bump, scale, weight
+from .residual import bump, scale
 
 FORMAT = "hapticfx-interpolator-table"
 VERSION = 1
@@ -122,7 +122,7 @@ class VelocityTable:
         self.meta = meta
         self.intervals = intervals
         self.path = path
-        self._index: dict[tuple, tuple[str, int, Interval]] = {}
+        self._index: dict[tuple, tuple[str, int, Interval, float]] = {}
 
     @classmethod
     def of(cls, banks: dict, intervals: dict[str, list[Interval]], *, interpolator: str, source: dict, dataset: str,
@@ -170,17 +170,25 @@ class VelocityTable:
             raise CheckpointError(f"{self.where}: stale: the bank of {bank.object!r} changed since the table was "
                                   f"built; {rebuild}")
         for i, iv in enumerate(self.intervals[bank.object]):
-            self._index[_key(bank[i], bank[i + 1])] = (bank.object, i, iv)
+            lower, upper = bank[i], bank[i + 1]
+            self._index[_key(lower, upper)] = (bank.object, i, iv, float(scale(lower.samples, upper.samples)))
 
     def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
         """The profile at ``velocity`` between two attached neighbours as a :class:`Blend` of the neighbours and
-        the interval's residual nodes (``residual.compose`` written out), or None for unknown neighbours."""
+        the interval's residual nodes (``residual.compose`` written out), or None for unknown neighbours.
+
+        Attached neighbours were checked with their bank, so only ``velocity`` is checked here.
+        """
         found = self._index.get(_key(lower, upper))
         if found is None:
             return None
-        obj, i, iv = found
-        w = float(weight(lower.velocity, upper.velocity, velocity))
-        k = float(bump(w) * scale(lower.samples, upper.samples))
+        v = valid_velocity(velocity)
+        if not lower.velocity <= v <= upper.velocity:
+            raise SignalError(f"velocity {v} m/s must lie between the neighbours {lower.velocity} and "
+                              f"{upper.velocity} m/s")
+        obj, i, iv, s = found
+        w = (v - lower.velocity) / (upper.velocity - lower.velocity)
+        k = 4.0 * w * (1.0 - w) * s  # residual.bump(w) * residual.scale(lower, upper)
         extra = tuple(Term(("table", obj, i, j), k * float(c), iv.residual[j])
                       for j, c in enumerate(iv.coefficients(w)) if c) if k else ()
         return Blend(1.0 - w, w, extra)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import bisect
 import inspect
 import threading
 from dataclasses import dataclass, field
@@ -64,18 +65,24 @@ class DataDrivenModel(Model):
         self.context = context
         self.dataset: Dataset = open_dataset(params.dataset, relative_to=context.base_dir)
         self.interpolator: Interpolator = _interpolator(params, context.source)
-        self._prepared: set[str] = set()
+        self._prepared: dict[str, tuple] = {}  # object -> (bank, its velocities as floats), once prepared
         self._lock = threading.Lock()
         if context.object_id:
             self.bank(context.object_id)  # load and prepare the effect's own object now
 
     def bank(self, object_id: str):
+        return self._bank(object_id)[0]
+
+    def _bank(self, object_id: str) -> tuple:
+        found = self._prepared.get(object_id)
+        if found is not None:
+            return found
         bank = self.dataset.bank(object_id, self.params.reducer)
         with self._lock:
             if object_id not in self._prepared:
                 self.interpolator.prepare(bank, dataset=self.dataset, base_dir=self.context.base_dir)
-                self._prepared.add(object_id)
-        return bank
+                self._prepared[object_id] = (bank, bank.velocities.tolist())
+            return self._prepared[object_id]
 
     def terms(self, impact: Impact) -> Terms | None:
         """The profile as recorded profiles (and the interpolator's atoms) with weights; None when the
@@ -95,13 +102,12 @@ class DataDrivenModel(Model):
         return Term(("bank", bank.object, i), weight, bank.profiles[i])
 
     def _terms(self, object_id: str, velocity: float) -> Terms | None:
-        bank = self.bank(object_id)
-        i = bank.index_of(velocity)
-        if i is not None:
-            return Terms(self.dataset.rate_hz, (self._recorded(bank, i, 1.0),))
-        lo, hi = float(bank.velocities[0]), float(bank.velocities[-1])
+        bank, recorded = self._bank(object_id)
+        k = bisect.bisect_right(recorded, velocity)  # recorded[k - 1] <= velocity < recorded[k]
+        if k and recorded[k - 1] == velocity:
+            return Terms(self.dataset.rate_hz, (self._recorded(bank, k - 1, 1.0),))
+        lo, hi = recorded[0], recorded[-1]
         if lo < velocity < hi:
-            k = int(np.searchsorted(bank.velocities, velocity, side="right"))
             blend = self.interpolator.blend(bank[k - 1], bank[k], velocity)
             if blend is None:
                 return None

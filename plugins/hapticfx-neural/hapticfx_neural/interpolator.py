@@ -168,7 +168,7 @@ class NeuralInterpolator(Interpolator):
 
     def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
         """The table's answer as a blend of fixed atoms; None when inference runs directly (``cache: false``)."""
-        return None if self.table is None else self.table.blend(*neighbours(lower, upper, velocity))
+        return None if self.table is None else self.table.blend(lower, upper, velocity)
 
     def atoms(self, bank) -> tuple[Term, ...]:
         return () if self.table is None else self.table.atoms(bank)
