@@ -110,14 +110,14 @@ class SafetyLimiter:
 
     def _over_budget(self, joined: np.ndarray, slack: float = 1.0) -> bool:
         """Whether any window of any RMS constraint holds more energy than it may."""
-        total = float(joined @ joined)  # no window holds more than all of it: most impacts stop here
-        sq = None
+        # Not a BLAS dot product: OpenBLAS hands a long one to its helper thread, which a busy core can stall
+        # for milliseconds.
+        sq = joined * joined
+        total = float(sq.sum())  # no window holds more than all of it: most impacts stop here
         for rms, win in self._rms:
             budget = rms * rms * win * slack
             if total <= budget:
                 continue
-            if sq is None:
-                sq = joined * joined
             # Cheap bound first: a window touches at most `reach` consecutive blocks of win/8 samples.
             size = max(1, win // 8)
             full = sq.size // size * size
