@@ -209,3 +209,19 @@ effects:
     assert all(p.signal.peak <= 0.3 + 1e-12 for p in played) and len(played) == 6
     assert 0.25 < np.max(np.abs(x)) <= 0.3 + 1e-6
     assert report.peak_events > 0
+
+
+@pytest.mark.parametrize("setting, frozen", [(None, True), ("0", False)])
+def test_opening_a_stream_takes_the_heap_out_of_full_collections(soundserver, setting, frozen):
+    import os
+    import subprocess
+
+    code = ("import gc\nfrom hapticfx_soundcard.actuator import VibroTransducer\n"
+            "before = gc.get_freeze_count()\n"
+            "with VibroTransducer():\n    print(before, gc.get_freeze_count())\n")
+    env = {k: v for k, v in os.environ.items() if k != "HAPTICFX_GC_FREEZE"}
+    if setting is not None:
+        env["HAPTICFX_GC_FREEZE"] = setting
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60)
+    before, after = map(int, done.stdout.split())
+    assert before == 0 and (after > 1000) == frozen and (after == 0) == (not frozen)
