@@ -25,17 +25,27 @@ THRESHOLD = 0.25
 
 @dataclass
 class Capture:
-    """Blocks recorded from an input device, with the ADC time of each block's first frame."""
+    """Blocks recorded from an input device, with the ADC time of each block's first frame.
+
+    Two flat lists, not a list of (time, block) pairs: a long capture would otherwise
+    hold hundreds of thousands of tuples, which every full garbage collection walks
+    with the GIL held, delaying the very audio callbacks being timed.
+    """
 
     rate_hz: float
-    blocks: list
+    blocks: list = field(default_factory=list)
+    times: list = field(default_factory=list)
+
+    def add(self, t0: float, block: np.ndarray) -> None:
+        self.blocks.append(block)
+        self.times.append(t0)
 
     def timeline(self, channel: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Samples of ``channel`` and the capture time of each."""
         if not self.blocks:
             raise DeviceError("the loopback capture recorded nothing")
-        x = np.concatenate([b[:, channel] for _, b in self.blocks])
-        t = np.concatenate([t0 + np.arange(b.shape[0]) / self.rate_hz for t0, b in self.blocks])
+        x = np.concatenate([b[:, channel] for b in self.blocks])
+        t = np.concatenate([t0 + np.arange(b.shape[0]) / self.rate_hz for t0, b in zip(self.times, self.blocks)])
         return x, t
 
 
@@ -44,7 +54,7 @@ class LoopbackRecorder:
 
     def __init__(self, rate_hz: float, *, device=None, channels: int = 2):
         sd = import_sounddevice()
-        self.capture = Capture(rate_hz, [])
+        self.capture = Capture(rate_hz)
         try:
             self._stream = sd.InputStream(device=device, samplerate=rate_hz, channels=channels,
                                           dtype="float32", latency="low", callback=self._callback)
@@ -52,7 +62,7 @@ class LoopbackRecorder:
             raise DeviceError(f"cannot record the loopback monitor: {exc}") from None
 
     def _callback(self, indata, frames, time_info, status):
-        self.capture.blocks.append((time_info.inputBufferAdcTime, indata.copy()))
+        self.capture.add(time_info.inputBufferAdcTime, indata.copy())
 
     def now(self) -> float:
         """The capture stream's clock (seconds)."""
@@ -97,18 +107,16 @@ class TimedPath:
     calls: list = field(default_factory=list)    # capture-clock time of each send
 
 
-def first_sample_latencies(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
-                           underflows: Callable[[], int], velocities=(2.45, 5.2),
-                           progress: Callable[[int], None] | None = None,
-                           seed: int = 0) -> tuple[dict[str, np.ndarray], int]:
-    """Seconds from each send to the first sample of what it played, per path, in one interleaved run,
-    and the stream underflows (``underflows()`` counts them) during the sends.
+def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float, underflows: Callable[[], int],
+                velocities=(2.45, 5.2), progress: Callable[[int], None] | None = None,
+                seed: int = 0) -> tuple[Capture, int]:
+    """Send ``n`` rounds while recording the monitor; the capture, and the stream underflows (``underflows()``
+    counts them) during the sends.
 
     Every round sends once on each path (in a rotating order), ``gap_s`` apart, at a
-    velocity drawn from ``velocities``. The onset of a played signal is where the
-    capture first reaches half its peak; the time its own samples take to get there
-    is subtracted, which gives the capture time of its first sample. NaN: not heard
-    before the next send.
+    velocity drawn from ``velocities``; each path notes the capture-clock time of each
+    send. Nothing is analysed here: the outputs are still open, and an analysis
+    running beside them would delay their audio callbacks.
     """
     rng = np.random.default_rng(seed)
     with LoopbackRecorder(rate_hz) as rec:
@@ -125,9 +133,22 @@ def first_sample_latencies(paths: list[TimedPath], rate_hz: float, n: int, *, ga
                 progress(i + 1)
         during = underflows() - before
         time.sleep(0.3)
+    return rec.capture, during
+
+
+def first_sample_latencies(paths: list[TimedPath], capture: Capture, *, gap_s: float) -> dict[str, np.ndarray]:
+    """Seconds from each send to the first sample of what it played, per path.
+
+    The onset of a played signal is where the capture first reaches half its peak;
+    the time its own samples take to get there is subtracted, which gives the
+    capture time of its first sample. NaN: not heard before the next send.
+    """
     out = {}
+    timelines = {}
     for p in paths:
-        x, t = rec.capture.timeline(p.channel)
+        if p.channel not in timelines:
+            timelines[p.channel] = capture.timeline(p.channel)
+        x, t = timelines[p.channel]
         lat = []
         for t_call, sig in zip(p.calls, p.signals):
             if sig is None:
@@ -135,11 +156,11 @@ def first_sample_latencies(paths: list[TimedPath], rate_hz: float, n: int, *, ga
                 continue
             peak = float(np.max(np.abs(sig)))
             lead = int(np.argmax(np.abs(sig) >= 0.5 * peak))  # samples from its first to half its peak
-            window = (t >= t_call) & (t < t_call + gap_s)
-            hit = np.flatnonzero(window & (np.abs(x) >= 0.5 * peak))
-            lat.append(t[hit[0]] - lead / rate_hz - t_call if hit.size else np.nan)
+            lo, hi = np.searchsorted(t, [t_call, t_call + gap_s])  # the capture is in time order
+            hit = np.flatnonzero(np.abs(x[lo:hi]) >= 0.5 * peak)
+            lat.append(t[lo + hit[0]] - lead / capture.rate_hz - t_call if hit.size else np.nan)
         out[p.name] = np.array(lat)
-    return out, during
+    return out
 
 
 def block_wall_times(voices: int, block: int, *, rate_hz: float = 48000.0, seconds: float = 1.0,

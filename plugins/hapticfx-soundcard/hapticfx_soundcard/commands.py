@@ -92,10 +92,11 @@ def _latency_section(effects: list[Path], impacts: int, latency, device: str, ga
                         encode_impact(f"osc-{osc_object}", v), addr), 0)
                     at_start = floor_act.underflows
                     with Progress(impacts, f"latency {latency}", unit="rounds") as bar:
-                        lat, underflows = bench.first_sample_latencies(
+                        capture, underflows = bench.send_rounds(
                             list(paths.values()), rate, impacts, gap_s=gap_s, underflows=lambda: floor_act.underflows,
                             progress=lambda i: bar.update())
             stats = engine.close()
+    lat = bench.first_sample_latencies(list(paths.values()), capture, gap_s=gap_s)
     floor_lat = lat[floor.name] * 1000
     heard = floor_lat[~np.isnan(floor_lat)]
     ref = (np.median(heard), np.percentile(heard, 99)) if heard.size else None

@@ -28,7 +28,7 @@ def record_while(play, seconds):
         time.sleep(0.1)
         play()
         time.sleep(seconds + 0.2)
-    x = np.concatenate([b for _, b in rec.capture.blocks]).astype(np.float64)
+    x = np.concatenate(rec.capture.blocks).astype(np.float64)
     return x
 
 
@@ -205,7 +205,7 @@ effects:
                 engine.impact("pulse", 7.0)
             time.sleep(0.8)
             report = out.actuator.limiter_report()
-    x = np.concatenate([b for _, b in rec.capture.blocks])[:, 0]
+    x = np.concatenate(rec.capture.blocks)[:, 0]
     assert all(p.signal.peak <= 0.3 + 1e-12 for p in played) and len(played) == 6
     assert 0.25 < np.max(np.abs(x)) <= 0.3 + 1e-6
     assert report.peak_events > 0
