@@ -51,6 +51,14 @@ class Term(NamedTuple):
     samples: np.ndarray
 
 
+def _weighted_sum(items) -> np.ndarray:
+    first, *rest = items
+    out = first.weight * first.samples
+    for t in rest:
+        out += t.weight * t.samples
+    return out
+
+
 @dataclass(frozen=True)
 class Terms:
     """A profile as a weighted sum of fixed atoms at ``rate_hz``: ``sum(t.weight * t.samples)``.
@@ -74,10 +82,7 @@ class Terms:
 
     def profile(self) -> Signal:
         """The profile itself: the weighted sum of the atoms."""
-        out = self.items[0].weight * self.items[0].samples
-        for t in self.items[1:]:
-            out += t.weight * t.samples
-        return Signal(out, self.rate_hz)
+        return Signal(_weighted_sum(self.items), self.rate_hz)
 
 
 class Blend(NamedTuple):
@@ -89,10 +94,8 @@ class Blend(NamedTuple):
 
     def of(self, lower: Profile, upper: Profile) -> np.ndarray:
         """The profile's samples."""
-        out = self.lower * lower.samples + self.upper * upper.samples
-        for t in self.extra:
-            out += t.weight * t.samples
-        return out
+        return _weighted_sum((Term("lower", self.lower, lower.samples), Term("upper", self.upper, upper.samples),
+                              *self.extra))
 
 
 class Reducer(abc.ABC):

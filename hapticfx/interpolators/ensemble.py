@@ -31,10 +31,10 @@ import numpy as np
 
 from ..atomic import user_path
 from ..errors import DatasetError, SignalError
-from ..interfaces import Blend, Interpolator, Profile, Term, TrainingData
+from ..interfaces import Profile, TrainingData
 from ..signal import valid_number
 from .residual import scale
-from .table import Interval, VelocityTable, neighbours
+from .table import Interval, TableServed, VelocityTable, neighbours
 
 TRIMS = (0.0, 0.1, 0.2, 0.3, 0.4)
 FALLBACK_TRIM = 0.4  # a median-like centre, when no velocity has neighbours on both sides to choose by
@@ -123,7 +123,7 @@ def write_tables(dataset, *, progress=None) -> list[Path]:
     return written
 
 
-class EnsembleInterpolator(Interpolator):
+class EnsembleInterpolator(TableServed):
     """Neighbours drawn toward the trimmed mean of all their recorded drops (see the module docs).
 
     Options (effect ``interpolator_options``): ``table`` (a fitted table file; default:
@@ -171,12 +171,6 @@ class EnsembleInterpolator(Interpolator):
             raise SignalError(f"ensemble: no fitted drops for the neighbours at {lo.velocity:g} and {hi.velocity:g} "
                               "m/s; prepare() the interpolator with their bank first")
         return found.of(lo, hi)
-
-    def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
-        return None if self.table is None else self.table.blend(lower, upper, velocity)
-
-    def atoms(self, bank) -> tuple[Term, ...]:
-        return () if self.table is None else self.table.atoms(bank)
 
     def describe(self) -> dict:
         return {} if self.table is None else {"served_from": self.table.describe(),

@@ -38,7 +38,7 @@ import numpy as np
 from ..atomic import atomic_path
 from ..data.dataset import UNREADABLE
 from ..errors import CheckpointError, SignalError, one_line
-from ..interfaces import Blend, Profile, Term
+from ..interfaces import Blend, Interpolator, Profile, Term
 from ..signal import valid_signal, valid_velocity
 from .residual import bump, scale
 
@@ -327,3 +327,17 @@ def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float) -> Interv
 
 
 __all__ = ["VelocityTable", "Interval", "build_table", "bank_digest", "DEFAULT_TOLERANCE"]
+
+
+class TableServed(Interpolator):
+    """An interpolator answered from its :class:`VelocityTable` (``self.table``) when it has one: its answers are
+    blends of the neighbours and the table's residual nodes, which a pipeline shapes once."""
+
+    table: VelocityTable | None = None
+
+    def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
+        return None if self.table is None else self.table.blend(lower, upper, velocity)
+
+    def atoms(self, bank) -> tuple[Term, ...]:
+        return () if self.table is None else self.table.atoms(bank)
+

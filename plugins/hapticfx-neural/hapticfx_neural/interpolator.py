@@ -16,8 +16,8 @@ import numpy as np
 
 from hapticfx.atomic import user_path
 from hapticfx.errors import CheckpointError, SignalError
-from hapticfx.interfaces import Blend, Interpolator, Profile, Term, TrainingData
-from hapticfx.interpolators.table import VelocityTable, neighbours
+from hapticfx.interfaces import Profile, TrainingData
+from hapticfx.interpolators.table import TableServed, VelocityTable, neighbours
 from hapticfx.signal import valid_number
 
 from . import checkpoint
@@ -33,7 +33,7 @@ def require_torch(why: str) -> None:
                               "pip install 'hapticfx-neural[train]'") from None
 
 
-class NeuralInterpolator(Interpolator):
+class NeuralInterpolator(TableServed):
     """Predicts a profile from its two recorded neighbours and the velocity with a trained network.
 
     Options (effect ``interpolator_options``): ``weights`` (checkpoint directory or
@@ -165,13 +165,6 @@ class NeuralInterpolator(Interpolator):
             if hit is not None:
                 return hit
         return self.predict(stack_triples([(lo, hi, v, None)], ["?"]))[0]
-
-    def blend(self, lower: Profile, upper: Profile, velocity: float) -> Blend | None:
-        """The table's answer as a blend of fixed atoms; None when inference runs directly (``cache: false``)."""
-        return None if self.table is None else self.table.blend(lower, upper, velocity)
-
-    def atoms(self, bank) -> tuple[Term, ...]:
-        return () if self.table is None else self.table.atoms(bank)
 
     def describe(self) -> dict:
         if self.table is not None:
