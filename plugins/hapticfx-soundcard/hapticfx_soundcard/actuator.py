@@ -129,6 +129,16 @@ class SoundCardActuator(Actuator):
         """Output underflows of the device's stream so far."""
         return self._require_stream().underflows
 
+    @property
+    def output_latency_s(self) -> float:
+        """The device stream's output latency (its buffer), as PortAudio reports it."""
+        return self._require_stream().output_latency_s
+
+    @property
+    def underflow_times(self) -> tuple[float, ...]:
+        """When the latest (up to 1,024) underflows were reported, in ``time.monotonic()`` seconds."""
+        return tuple(self._require_stream().underflow_times)
+
     def limiter_report(self):
         """What the mixer's safety limiter on this channel did (the sum of overlapping impacts)."""
         return self._require_stream().mixer.report(self.channel)

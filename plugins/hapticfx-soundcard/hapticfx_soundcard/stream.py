@@ -19,6 +19,7 @@ import os
 import sys
 import threading
 import time
+from collections import deque
 
 import numpy as np
 from hapticfx.errors import DeviceError
@@ -135,6 +136,7 @@ class DeviceStream:
         self.mixer = Mixer(min(2, device.channels), self.rate_hz, max_voices=max_voices)
         self.users: set[int] = set()
         self.underflows = 0
+        self.underflow_times: deque[float] = deque(maxlen=1024)  # time.monotonic() of the latest ones
         self.outage: str | None = None  # why the device cannot play now
         self.outages = 0
         self.lost = 0  # impacts cut off by an outage
@@ -214,9 +216,10 @@ class DeviceStream:
         if generation != self._generation:
             outdata.fill(0.0)
             return
-        self._last_callback = time.monotonic()
+        self._last_callback = now = time.monotonic()
         if status.output_underflow:
             self.underflows += 1
+            self.underflow_times.append(now)
         self.mixer.render_into(outdata)
 
     def _finished(self, generation: int) -> None:
@@ -296,4 +299,5 @@ class DeviceStream:
 
     @property
     def output_latency_s(self) -> float:
+        """The running stream's output latency in seconds (NaN while none runs)."""
         return float(self._stream.latency) if self._stream is not None else float("nan")

@@ -225,3 +225,22 @@ def test_opening_a_stream_takes_the_heap_out_of_full_collections(soundserver, se
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60)
     before, after = map(int, done.stdout.split())
     assert before == 0 and (after > 1000) == frozen and (after == 0) == (not frozen)
+
+
+def test_a_stream_left_unfed_longer_than_its_buffer_counts_and_times_the_underflow(soundserver):
+    """This whole process is stopped (SIGSTOP, from a child) for 60 ms, longer than the 8.7 ms
+    'low' buffer: what a host taking the CPU away does, and what ``bench output`` reports."""
+    import os
+    import subprocess
+
+    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
+        assert 0.001 < act.output_latency_s < 0.06
+        time.sleep(0.5)  # past the stream's start
+        before, times_before = act.underflows, act.underflow_times
+        t0 = time.monotonic()
+        subprocess.run(["sh", "-c", f"kill -STOP {os.getpid()}; sleep 0.06; kill -CONT {os.getpid()}"], check=True)
+        time.sleep(0.3)
+        new = act.underflow_times[len(times_before):]
+        assert act.underflows > before
+        assert len(new) == act.underflows - before
+        assert all(t0 + 0.05 < t < time.monotonic() for t in new)
