@@ -18,6 +18,7 @@ from hapticfx.interfaces import SafetyLimits
 
 from .devices import import_sounddevice
 from .mixer import Mixer
+from .stallprobe import Stall, StallProbe
 
 CLICK_LEVEL = 0.5
 THRESHOLD = 0.25
@@ -107,21 +108,42 @@ class TimedPath:
     calls: list = field(default_factory=list)    # capture-clock time of each send
 
 
-def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float, underflows: Callable[[], int],
-                velocities=(2.45, 5.2), progress: Callable[[int], None] | None = None,
-                seed: int = 0) -> tuple[Capture, int]:
-    """Send ``n`` rounds while recording the monitor; the capture, and the stream underflows (``underflows()``
-    counts them) during the sends.
+@dataclass
+class Rounds:
+    """What ``send_rounds`` recorded: the monitor's capture, when the output underflowed during the
+    sends (``time.monotonic()``), how many underflows came before them (streams settling), and the
+    machine's own stalls over the same time."""
+
+    capture: Capture
+    underflow_times: list[float]
+    machine: StallProbe
+    settling: int = 0
+
+    def put_down_to_machine(self, *, within_s: float = 0.02, at_least_s: float = 0.005) -> list[Stall | None]:
+        """For each underflow, the longest machine stall of at least ``at_least_s`` that ended
+        within ``within_s`` before it was reported (None: no such stall)."""
+        out = []
+        for t in self.underflow_times:
+            stall = self.machine.before(t, within_s=within_s)
+            out.append(stall if stall is not None and stall.seconds >= at_least_s else None)
+        return out
+
+
+def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
+                underflow_times: Callable[[], tuple[float, ...]], velocities=(2.45, 5.2),
+                progress: Callable[[int], None] | None = None, seed: int = 0) -> Rounds:
+    """Send ``n`` rounds while recording the monitor and probing the machine for stalls.
 
     Every round sends once on each path (in a rotating order), ``gap_s`` apart, at a
     velocity drawn from ``velocities``; each path notes the capture-clock time of each
-    send. Nothing is analysed here: the outputs are still open, and an analysis
-    running beside them would delay their audio callbacks.
+    send. ``underflow_times()`` gives the output stream's underflow times. Nothing is
+    analysed here: the outputs are still open, and an analysis running beside them
+    would delay their audio callbacks.
     """
     rng = np.random.default_rng(seed)
-    with LoopbackRecorder(rate_hz) as rec:
+    with LoopbackRecorder(rate_hz) as rec, StallProbe() as machine:
         time.sleep(0.3)
-        before = underflows()
+        start = time.monotonic()
         for i in range(n):
             k = i % len(paths)
             for p in paths[k:] + paths[:k]:
@@ -131,9 +153,10 @@ def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
                 time.sleep(gap_s)
             if progress:
                 progress(i + 1)
-        during = underflows() - before
+        every = underflow_times()
+        during = [t for t in every if t >= start]
         time.sleep(0.3)
-    return rec.capture, during
+    return Rounds(rec.capture, during, machine, settling=len(every) - len(during))
 
 
 def first_sample_latencies(paths: list[TimedPath], capture: Capture, *, gap_s: float) -> dict[str, np.ndarray]:

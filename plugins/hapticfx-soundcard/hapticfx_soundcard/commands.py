@@ -42,6 +42,9 @@ def _row(label: str, values_s, floor=None) -> str:
 
 DEFAULT_EFFECTS = ("effects/falling_brick_kinetic.yaml", "effects/falling_brick_linear.yaml",
                    "effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml")
+STALL_S = 0.005  # a machine stall this long can empty a 'low' buffer that is already half played
+# The first callback after a stall reports its underflow: 0.7-7 ms after the stall ended in docs/benchmarks.md.
+STALL_WINDOW_S = 0.02
 BLOCKS = (48, 104, 256)  # 48: PortAudio's block at a 4 ms buffer here; 104: at 'low'; 256: a common setting
 
 
@@ -90,25 +93,49 @@ def _latency_section(effects: list[Path], impacts: int, latency, device: str, ga
                     addr = bridge.address
                     paths[f"osc-{osc_object}"] = bench.TimedPath(f"OSC datagram, {osc_object}", lambda v: client.sendto(
                         encode_impact(f"osc-{osc_object}", v), addr), 0)
-                    at_start = floor_act.underflows
+                    buffer_s = floor_act.output_latency_s
                     with Progress(impacts, f"latency {latency}", unit="rounds") as bar:
-                        capture, underflows = bench.send_rounds(
-                            list(paths.values()), rate, impacts, gap_s=gap_s, underflows=lambda: floor_act.underflows,
-                            progress=lambda i: bar.update())
+                        rounds = bench.send_rounds(
+                            list(paths.values()), rate, impacts, gap_s=gap_s,
+                            underflow_times=lambda: floor_act.underflow_times, progress=lambda i: bar.update())
             stats = engine.close()
-    lat = bench.first_sample_latencies(list(paths.values()), capture, gap_s=gap_s)
+    lat = bench.first_sample_latencies(list(paths.values()), rounds.capture, gap_s=gap_s)
     floor_lat = lat[floor.name] * 1000
     heard = floor_lat[~np.isnan(floor_lat)]
     ref = (np.median(heard), np.percentile(heard, 99)) if heard.size else None
     typer.echo(f"\n### stream latency {latency}: {impacts} impacts per path, {gap_s:g} s apart, paths interleaved; "
-               f"{underflows} stream underflows during the {impacts * len(paths)} sends ({at_start} while the "
-               f"streams started); engine: {stats['rendered']} played, "
+               f"output buffer {buffer_s * 1e3:.1f} ms; engine: {stats['rendered']} played, "
                f"{stats['failed']} failed, {stats['dropped_queue_full']} dropped\n")
+    _underflow_report(rounds, impacts * len(paths), buffer_s)
     typer.echo("| path (ms) | median | p99 | min | max | not heard | median - floor | p99 - floor |\n"
                "|---|---:|---:|---:|---:|---:|---:|---:|")
     for key, p in paths.items():
         label = p.name if key == "floor" or key.startswith("osc-") else f"Engine.impact, {p.name}"
         typer.echo(_row(label, lat[p.name], None if key == "floor" else ref))
+
+
+def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
+    """The underflows during the sends, set against the machine's own stalls over the same time."""
+    machine = rounds.machine
+    stalls = np.array([s.seconds for s in machine.stalls]) * 1e3
+    longest = max(machine.stalls, key=lambda s: s.seconds, default=None)
+    causes = rounds.put_down_to_machine(within_s=STALL_WINDOW_S, at_least_s=STALL_S)
+    typer.echo(
+        f"{len(rounds.underflow_times)} stream underflows during the {sends} sends ({rounds.settling} before them, "
+        f"while the streams settled). Machine stalls over the same {machine.seconds:.0f} s (a probe per CPU, "
+        f"scheduler {machine.policy!r}): {int((stalls >= STALL_S * 1e3).sum())} of {STALL_S * 1e3:g} ms or more, "
+        f"{int((stalls >= buffer_s * 1e3).sum())} longer than the buffer"
+        + (f", the longest {longest.seconds * 1e3:.1f} ms on CPU {longest.cpu}" if longest else "")
+        + "".join(f"; the host's steal time, CPU {cpu}: {s * 1e3:.0f} ms" for cpu, s in machine.steal_s.items())
+        + f". Underflows within {STALL_WINDOW_S * 1e3:g} ms after such a stall: "
+        f"{sum(c is not None for c in causes)} of {len(causes)}.\n")
+    if causes:
+        typer.echo("| underflow | machine stall before it |\n|---|---|")
+        for t, stall in zip(rounds.underflow_times, causes):
+            what = (f"{stall.seconds * 1e3:.1f} ms on CPU {stall.cpu}, ended {(t - stall.end) * 1e3:.1f} ms before"
+                    if stall else f"none of {STALL_S * 1e3:g} ms or more")
+            typer.echo(f"| +{t - machine.started:.1f} s | {what} |")
+        typer.echo("")
 
 
 def bench_output(
@@ -131,8 +158,10 @@ def bench_output(
     Latency: Engine.impact() (and an OSC datagram) to the first sample captured from the
     sound server's monitor, per model, through the effect's vibro-transducer spec, the
     engine's queue and worker, shaping, the limiters and the mixer; the floor is a ready
-    click written into the same stream in the same run. Needs a sound server whose
-    default input records the output (the PulseAudio null sink of .ci/soundserver.sh).
+    click written into the same stream in the same run. The stream's underflows are set
+    against the machine's own stalls over the same time (a probe per CPU, at real-time
+    priority where permitted). Needs a sound server whose default input records the
+    output (the PulseAudio null sink of .ci/soundserver.sh).
     Capacity: the audio callback's wall time at the block sizes PortAudio uses here,
     against the block's period. Recovery: a private server (.ci/soundserver.sh) stalled
     for 1 s or killed and restarted under a playing actuator.

@@ -1,0 +1,42 @@
+"""The machine-stall probe that ``hapticfx bench output`` sets beside the stream's underflows."""
+
+import os
+import signal
+import time
+
+from hapticfx_soundcard.bench import Capture, Rounds
+from hapticfx_soundcard.stallprobe import Stall, StallProbe
+
+
+def test_a_probe_that_is_not_run_reports_the_stall_on_its_cpu():
+    """Stopping a probe process (SIGSTOP) is what a host taking its CPU away looks like from inside."""
+    with StallProbe() as probe:
+        proc = probe._procs[0]
+        time.sleep(0.05)
+        os.kill(proc.pid, signal.SIGSTOP)
+        time.sleep(0.08)
+        os.kill(proc.pid, signal.SIGCONT)
+        time.sleep(0.05)
+    cpu = sorted(os.sched_getaffinity(0))[0]
+    mine = [s for s in probe.stalls if s.cpu == cpu and s.seconds >= 0.07]
+    assert len(mine) == 1, probe.stalls
+    assert probe.started <= mine[0].start < mine[0].end <= probe.started + probe.seconds
+    assert probe.policy in ("fifo", "other")
+
+
+def test_every_reported_stall_is_longer_than_the_threshold():
+    with StallProbe(period_s=0.001, threshold_s=0.0005) as probe:
+        time.sleep(0.3)
+    assert 0.25 < probe.seconds < 5
+    assert all(s.seconds > 0.0015 for s in probe.stalls)
+    assert {s.cpu for s in probe.stalls} <= set(os.sched_getaffinity(0))
+    assert all(s >= 0 for s in probe.steal_s.values())
+    assert set(probe.steal_s) <= set(range(os.cpu_count()))
+
+
+def test_an_underflow_is_put_down_to_a_long_enough_stall_just_before_it():
+    probe = StallProbe()
+    probe.stalls = [Stall(0, 10.0, 0.012), Stall(1, 20.0, 0.003), Stall(1, 30.0, 0.004), Stall(0, 30.001, 0.011)]
+    rounds = Rounds(Capture(48000.0), [10.02, 20.01, 30.05, 40.0, 9.0], probe)
+    found = rounds.put_down_to_machine(within_s=0.1, at_least_s=0.005)
+    assert found == [probe.stalls[0], None, probe.stalls[3], None, None]
