@@ -24,6 +24,7 @@ from collections import deque
 import numpy as np
 from hapticfx.errors import DeviceError
 from hapticfx.interfaces import SafetyLimits
+from hapticfx.ratelog import RateLimitedLog
 
 from .devices import OutputDevice, import_sounddevice
 from .mixer import Mixer
@@ -32,6 +33,8 @@ from .noise import FILTER
 log = logging.getLogger(__name__)
 
 RETRY_S = 0.2  # between attempts to reopen a stream that stopped
+START_S = 0.25  # an underflow this soon after a stream starts is its start (seen at +15 ms), not a gap in the sound
+UNDERFLOW_LOG_S = 10.0  # at most one underflow warning per stream in this time
 SWITCH_INTERVAL_S = 0.001
 GC_FREEZE_ENV = "HAPTICFX_GC_FREEZE"  # "0": leave the garbage collector as it is
 
@@ -137,6 +140,9 @@ class DeviceStream:
         self.users: set[int] = set()
         self.underflows = 0
         self.underflow_times: deque[float] = deque(maxlen=1024)  # time.monotonic() of the latest ones
+        self._underflows_told = 0
+        self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
+        self._started = 0.0
         self.outage: str | None = None  # why the device cannot play now
         self.outages = 0
         self.lost = 0  # impacts cut off by an outage
@@ -192,7 +198,7 @@ class DeviceStream:
                 callback=lambda *a: self._callback(generation, *a),
                 finished_callback=lambda: self._finished(generation),
             )
-            self._last_callback = time.monotonic()
+            self._last_callback = self._started = time.monotonic()
             stream.start()
         except sd.PortAudioError as exc:
             raise DeviceError(f"cannot open sound output {self.device.name!r}: {exc}") from None
@@ -201,6 +207,7 @@ class DeviceStream:
     def shutdown(self) -> None:
         """Stop the stream and the watchdog (does not wait for queued impacts)."""
         self._stop.set()
+        self._underflow_log.flush()
         with self._state:
             self._generation += 1  # its finished callback is ours, not an outage
         if self._stream is not None:
@@ -247,6 +254,18 @@ class DeviceStream:
         self.downtime_s.append(down)
         log.warning("sound output %r is back after %.2f s (%s)", self.device.name, down, how)
 
+    def _tell_underflows(self, now: float) -> None:
+        """Warn (at a bounded rate) of underflows since the last look, other than a stream's start."""
+        new = self.underflows - self._underflows_told
+        if not new:
+            return
+        self._underflows_told = self.underflows
+        if now - self._started > START_S:
+            self._underflow_log.event("underflow", (
+                f"sound output {self.device.name!r}: {new} underflow(s), gaps in the sound (its buffer holds "
+                f"{self.output_latency_s * 1e3:.1f} ms and was not refilled in time); if they go on, give the "
+                f"actuator a longer latency (e.g. latency: 0.03) or run less beside it"))
+
     def _watch(self) -> None:
         period = min(0.05, self.watchdog_s / 4)
         while not self._stop.wait(period):
@@ -255,6 +274,7 @@ class DeviceStream:
             if self.outage is None:
                 if silent > self.watchdog_s:
                     self._lose(f"no audio callback for {silent:.2f} s (sound server stalled or gone)")
+                self._tell_underflows(now)
                 continue
             stream = self._stream
             if stream is not None and stream.active:
