@@ -26,6 +26,8 @@ import sys
 import time
 from dataclasses import dataclass, field
 
+from hapticfx.errors import HapticfxError
+
 
 @dataclass(frozen=True)
 class Stall:
@@ -56,18 +58,22 @@ class StallProbe:
     policy: str = ""
     started: float = 0.0  # time.monotonic() when every probe was running
     seconds: float = 0.0
-    steal_s: dict[int, float] = field(default_factory=dict)
+    steal_s: dict[int, float] = field(default_factory=dict)  # per probed CPU
     _procs: list = field(default_factory=list)
+    _cpus: list[int] = field(default_factory=list)
+    _steal: dict[int, float] = field(default_factory=dict)
 
     def __enter__(self) -> "StallProbe":
-        for cpu in sorted(os.sched_getaffinity(0)):
+        self._cpus = sorted(os.sched_getaffinity(0))
+        for cpu in self._cpus:
             proc = subprocess.Popen([sys.executable, "-m", __name__, str(cpu), repr(self.period_s),
                                      repr(self.threshold_s)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
             self._procs.append(proc)
             ready = proc.stdout.readline().split()
             if ready[:1] != ["ready"]:
                 self.__exit__()
-                raise RuntimeError(f"the stall probe on CPU {cpu} did not start")
+                raise HapticfxError(f"the machine-stall probe on CPU {cpu} did not start "
+                                    f"(python -m {__name__} {cpu} ... printed {' '.join(ready) or 'nothing'!r})")
             self.policy = ready[1]
         self.started = time.monotonic()
         self._steal = _steal_s()
@@ -76,7 +82,8 @@ class StallProbe:
     def __exit__(self, *exc) -> bool:
         self.seconds = time.monotonic() - self.started if self.started else 0.0
         now = _steal_s()
-        self.steal_s = {cpu: now[cpu] - was for cpu, was in getattr(self, "_steal", {}).items() if cpu in now}
+        self.steal_s = {cpu: now[cpu] - was for cpu, was in self._steal.items()
+                        if cpu in now and cpu in self._cpus}
         for proc in self._procs:
             out, _ = proc.communicate(timeout=10)  # closes its stdin: the probe reports and ends
             for line in out.splitlines():
