@@ -51,11 +51,12 @@ class Term(NamedTuple):
     samples: np.ndarray
 
 
-def _weighted_sum(items) -> np.ndarray:
-    first, *rest = items
-    out = first.weight * first.samples
-    for t in rest:
-        out += t.weight * t.samples
+def weighted_sum(pairs) -> np.ndarray:
+    """``sum(weight * samples)`` over ``(weight, samples)`` pairs (at least one), in a new array."""
+    (weight, samples), *rest = pairs
+    out = weight * samples
+    for weight, samples in rest:
+        out += weight * samples
     return out
 
 
@@ -82,7 +83,7 @@ class Terms:
 
     def profile(self) -> Signal:
         """The profile itself: the weighted sum of the atoms."""
-        return Signal(_weighted_sum(self.items), self.rate_hz)
+        return Signal(weighted_sum((t.weight, t.samples) for t in self.items), self.rate_hz)
 
 
 class Blend(NamedTuple):
@@ -94,8 +95,8 @@ class Blend(NamedTuple):
 
     def of(self, lower: Profile, upper: Profile) -> np.ndarray:
         """The profile's samples."""
-        return _weighted_sum((Term("lower", self.lower, lower.samples), Term("upper", self.upper, upper.samples),
-                              *self.extra))
+        return weighted_sum(((self.lower, lower.samples), (self.upper, upper.samples),
+                             *((t.weight, t.samples) for t in self.extra)))
 
 
 class Reducer(abc.ABC):

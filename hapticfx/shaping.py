@@ -16,7 +16,7 @@ import threading
 from collections import OrderedDict
 
 from .dsp import causal_butterworth, rate_ratio, resample_rate, taper
-from .interfaces import ActuatorSpec, Term, Terms
+from .interfaces import ActuatorSpec, Term, Terms, weighted_sum
 from .signal import Signal, valid_number
 
 FADE_IN_S = 0.002   # shorter than any onset a model puts after its first sample
@@ -103,9 +103,5 @@ class ShapedAtoms:
 
     def shape(self, terms: Terms, spec: ActuatorSpec) -> Signal:
         """``shape(terms.profile(), spec, ...)``, from the shaped atoms."""
-        first, *rest = terms.items
-        atom = self._atom(first, terms.rate_hz, spec)
-        out = first.weight * atom.samples
-        for term in rest:
-            out += term.weight * self._atom(term, terms.rate_hz, spec).samples
-        return Signal(out, atom.rate_hz)
+        shaped = [self._atom(term, terms.rate_hz, spec) for term in terms.items]
+        return Signal(weighted_sum((t.weight, a.samples) for t, a in zip(terms.items, shaped)), shaped[0].rate_hz)
