@@ -326,9 +326,6 @@ def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float) -> Interv
         degree *= 2
 
 
-__all__ = ["VelocityTable", "Interval", "build_table", "bank_digest", "DEFAULT_TOLERANCE"]
-
-
 class TableServed(Interpolator):
     """An interpolator answered from its :class:`VelocityTable` (``self.table``) when it has one: its answers are
     blends of the neighbours and the table's residual nodes, which a pipeline shapes once."""
@@ -341,3 +338,6 @@ class TableServed(Interpolator):
     def atoms(self, bank) -> tuple[Term, ...]:
         return () if self.table is None else self.table.atoms(bank)
 
+
+__all__ = ["VelocityTable", "Interval", "TableServed", "neighbours", "build_table", "bank_digest",
+           "DEFAULT_TOLERANCE"]
