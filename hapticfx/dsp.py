@@ -18,7 +18,6 @@ from fractions import Fraction
 from functools import lru_cache
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 from numpy.fft import irfft, rfft  # imported here, not lazily on the first impact
 
 
@@ -66,12 +65,17 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
     blocks = -(-n_out // up)
     left = max(0, -lo)
     right = max(0, (blocks - 1) * down + lo + m.shape[0] - n_in)
-    padded = np.pad(x, [(0, 0)] * (x.ndim - 1) + [(left, right)])
-    start = lo + left
-    windows = sliding_window_view(padded, m.shape[0], axis=-1)[..., start:start + (blocks - 1) * down + 1:down, :]
+    padded = np.zeros(x.shape[:-1] + (left + n_in + right,))
+    padded[..., left:left + n_in] = x
+    # Block b reads padded[..., (lo + left) + b * down :][:K], a strided view (no copy); built directly, as
+    # the sliding-window helpers cost more than the product itself on a 500-sample profile.
+    item = padded.itemsize
+    windows = np.ndarray(x.shape[:-1] + (blocks, m.shape[0]), dtype=padded.dtype, buffer=padded,
+                         offset=(lo + left) * item, strides=padded.strides[:-1] + (down * item, item))
     return (windows @ m).reshape(x.shape[:-1] + (blocks * up,))[..., :n_out]
 
 
+@lru_cache(maxsize=64)  # a Fraction's limit_denominator is slow for a per-impact path, and the rate pairs are few
 def rate_ratio(from_hz: float, to_hz: float) -> Fraction:
     """``to_hz / from_hz`` as the nearest fraction with a denominator up to 1000 (``ValueError`` when 0)."""
     ratio = Fraction(to_hz / from_hz).limit_denominator(1000)
@@ -86,8 +90,10 @@ def resample_rate(x: np.ndarray, from_hz: float, to_hz: float, *, axis: int = -1
     if from_hz == to_hz:
         return np.array(x, dtype=np.float64)
     ratio = rate_ratio(from_hz, to_hz)
-    x = np.moveaxis(np.asarray(x, dtype=np.float64), axis, -1)
-    return np.moveaxis(resample_poly(x, ratio.numerator, ratio.denominator), -1, axis)
+    x = np.asarray(x, dtype=np.float64)
+    if axis in (-1, x.ndim - 1):
+        return resample_poly(x, ratio.numerator, ratio.denominator)
+    return np.moveaxis(resample_poly(np.moveaxis(x, axis, -1), ratio.numerator, ratio.denominator), -1, axis)
 
 
 def _next_pow2(n: int) -> int:
@@ -132,6 +138,14 @@ def causal_butterworth(x: np.ndarray, rate_hz: float, *, low_hz: float | None, h
     return irfft(rfft(x, nfft) * _response(rate_hz, low_hz, high_hz, nfft), nfft)[..., :n]
 
 
+@lru_cache(maxsize=32)
+def _ramp(count: int) -> np.ndarray:
+    """Raised-cosine fade-in of ``count`` samples: 0 ... just under 1."""
+    ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(count) / count)
+    ramp.setflags(write=False)
+    return ramp
+
+
 def taper(x: np.ndarray, rate_hz: float, *, fade_in_s: float, fade_out_s: float) -> np.ndarray:
     """``x`` with raised-cosine fades at both ends, so that it starts and ends at zero."""
     x = np.array(x, dtype=np.float64)
@@ -139,7 +153,7 @@ def taper(x: np.ndarray, rate_hz: float, *, fade_in_s: float, fade_out_s: float)
     for count, at_end in ((int(round(fade_in_s * rate_hz)), False), (int(round(fade_out_s * rate_hz)), True)):
         count = min(count, n // 2)
         if count:
-            ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(count) / count)  # 0 ... just under 1
+            ramp = _ramp(count)
             if at_end:
                 x[..., n - count:] *= ramp[::-1]
             else:
