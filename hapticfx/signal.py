@@ -66,11 +66,27 @@ class Signal:
     rate_hz: float
 
     def __post_init__(self):
-        arr = valid_signal(self.samples, name="Signal.samples", ndim=(1, 2))
+        self._hold(self.samples, copy=True)
+
+    @classmethod
+    def adopt(cls, samples: np.ndarray, rate_hz: float) -> "Signal":
+        """A Signal over ``samples`` itself, not a copy (validated alike; the array becomes read-only).
+
+        For an array just made that nothing else holds: a render's 48 kHz output
+        is not copied once more on its way out.
+        """
+        signal = object.__new__(cls)
+        object.__setattr__(signal, "rate_hz", rate_hz)
+        signal._hold(samples, copy=False)
+        return signal
+
+    def _hold(self, samples, *, copy: bool) -> None:
+        arr = valid_signal(samples, name="Signal.samples", ndim=(1, 2))
         rate = valid_number(self.rate_hz, name="Signal.rate_hz")
         if rate <= 0:
             raise SignalError(f"Signal.rate_hz must be > 0, got {rate}")
-        arr = np.array(arr, dtype=np.float64, copy=True)
+        if copy:
+            arr = np.array(arr, dtype=np.float64, copy=True)
         arr.setflags(write=False)
         object.__setattr__(self, "samples", arr)
         object.__setattr__(self, "rate_hz", rate)

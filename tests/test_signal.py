@@ -35,10 +35,25 @@ def test_signal_is_frozen_and_copied():
     assert s.duration_s == pytest.approx(0.004)
 
 
+def test_an_adopted_array_is_not_copied_but_made_read_only():
+    data = np.arange(4.0)
+    s = Signal.adopt(data, 1000)
+    assert s.samples is data and not data.flags.writeable
+    assert s.rate_hz == 1000.0 and isinstance(s.rate_hz, float)
+
+
+@pytest.mark.parametrize("bad, message", [(np.array([1.0, np.nan]), "non-finite"), (np.zeros((1, 1, 4)), "dimension"),
+                                          (np.array([1 + 2j]), "real numbers")])
+def test_an_adopted_array_passes_the_same_gate(bad, message):
+    with pytest.raises(SignalError, match=message):
+        Signal.adopt(bad, 1000)
+
+
 @pytest.mark.parametrize("rate", [0, -1, float("nan")])
-def test_signal_rejects_bad_rate(rate):
+@pytest.mark.parametrize("make", [Signal, Signal.adopt])
+def test_signal_rejects_bad_rate(rate, make):
     with pytest.raises(SignalError):
-        Signal(np.zeros(4), rate)
+        make(np.zeros(4), rate)
 
 
 @pytest.mark.parametrize("v", [float("nan"), float("inf"), -0.1, "3", None, True])
