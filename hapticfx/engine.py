@@ -273,7 +273,7 @@ class Engine:
         limited = delivery.limiter.total > 0
         if out.limiter is not None:
             before = out.limiter.report().total
-            signal = signal.with_samples(out.limiter.process(signal.samples, at_s=now))
+            signal = Signal.adopt(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)
             limited = limited or out.limiter.report().total > before
         out.actuator.play(signal)
         for note in delivery.notes:

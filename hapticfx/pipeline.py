@@ -148,7 +148,7 @@ class Pipeline:
         with self._lock:
             out = self.limiter.process(shaped.samples, at_s=impact.time_s)
             report = self.limiter.report()
-        return Delivery(impact, profile, shaped.with_samples(out), report, tuple(self.model.notes(impact)))
+        return Delivery(impact, profile, Signal.adopt(out, shaped.rate_hz), report, tuple(self.model.notes(impact)))
 
     def impact(self, *, velocity: float | None = None, object: str | None = None) -> Delivery:
         """Render one impact and play it; returns what was sent to the actuator."""

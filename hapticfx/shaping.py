@@ -29,17 +29,14 @@ def resample(signal: Signal, rate_hz: float) -> Signal:
     if rate_hz == signal.rate_hz:
         return signal
     rate = signal.rate_hz * rate_ratio(signal.rate_hz, rate_hz)
-    return Signal(resample_rate(signal.samples, signal.rate_hz, rate_hz), float(rate))
+    return Signal.adopt(resample_rate(signal.samples, signal.rate_hz, rate_hz), float(rate))
 
 
-def band_limit(signal: Signal, band_hz: tuple[float, float]) -> Signal:
-    """Causal 2nd-order Butterworth band limit; an edge at 0 or near Nyquist is left open."""
-    nyq = signal.rate_hz / 2
-    lo = band_hz[0] if 0 < band_hz[0] < nyq else None
-    hi = band_hz[1] if 0 < band_hz[1] < 0.95 * nyq else None
-    if lo is None and hi is None:
-        return signal
-    return signal.with_samples(causal_butterworth(signal.samples, signal.rate_hz, low_hz=lo, high_hz=hi))
+def _band_edges(rate_hz: float, band_hz: tuple[float, float]) -> tuple[float | None, float | None]:
+    """The band's edges that a filter at ``rate_hz`` applies; one at 0 or near Nyquist is left open (None)."""
+    nyq = rate_hz / 2
+    return (band_hz[0] if 0 < band_hz[0] < nyq else None,
+            band_hz[1] if 0 < band_hz[1] < 0.95 * nyq else None)
 
 
 def shape(profile: Signal, spec: ActuatorSpec, *, gain: float, scale: float) -> Signal:
@@ -48,11 +45,16 @@ def shape(profile: Signal, spec: ActuatorSpec, *, gain: float, scale: float) -> 
     ``scale`` converts model units to the actuator's full range (for a profile in g,
     ``1 / full_scale_g``); ``gain`` is the effect's gain.
     """
-    out = profile.with_samples(profile.samples * (gain * scale))
+    rate = profile.rate_hz
+    x = profile.samples * (gain * scale)  # a per-impact path: arrays between the steps, one Signal at the end
     if spec.waveform:  # a pulse actuator (a solenoid) reads the envelope's width: no band, no fades
-        out = band_limit(out, spec.band_hz)
-        out = out.with_samples(taper(out.samples, out.rate_hz, fade_in_s=FADE_IN_S, fade_out_s=FADE_OUT_S))
-    return resample(out, spec.rate_hz)
+        lo, hi = _band_edges(rate, spec.band_hz)
+        if lo is not None or hi is not None:
+            x = causal_butterworth(x, rate, low_hz=lo, high_hz=hi)
+        x = taper(x, rate, fade_in_s=FADE_IN_S, fade_out_s=FADE_OUT_S)
+    if spec.rate_hz == rate:
+        return Signal.adopt(x, rate)
+    return Signal.adopt(resample_rate(x, rate, spec.rate_hz), float(rate * rate_ratio(rate, spec.rate_hz)))
 
 
 ATOM_CACHE_BYTES = 64 << 20  # shaped atoms kept per pipeline; the least recently used go first
@@ -104,4 +106,4 @@ class ShapedAtoms:
     def shape(self, terms: Terms, spec: ActuatorSpec) -> Signal:
         """``shape(terms.profile(), spec, ...)``, from the shaped atoms."""
         shaped = [self._atom(term, terms.rate_hz, spec) for term in terms.items]
-        return Signal(weighted_sum((t.weight, a.samples) for t, a in zip(terms.items, shaped)), shaped[0].rate_hz)
+        return Signal.adopt(weighted_sum((t.weight, a.samples) for t, a in zip(terms.items, shaped)), shaped[0].rate_hz)
