@@ -56,6 +56,7 @@ class LoopbackRecorder:
     def __init__(self, rate_hz: float, *, device=None, channels: int = 2):
         sd = import_sounddevice()
         self.capture = Capture(rate_hz)
+        self.overflows = 0  # input blocks the machine did not take in time: a gap in the capture
         try:
             self._stream = sd.InputStream(device=device, samplerate=rate_hz, channels=channels,
                                           dtype="float32", latency="low", callback=self._callback)
@@ -63,6 +64,8 @@ class LoopbackRecorder:
             raise DeviceError(f"cannot record the loopback monitor: {exc}") from None
 
     def _callback(self, indata, frames, time_info, status):
+        if status.input_overflow:
+            self.overflows += 1
         self.capture.add(time_info.inputBufferAdcTime, indata.copy())
 
     def now(self) -> float:

@@ -22,14 +22,26 @@ def impact(n=2400, f=180.0, amp=0.4, decay=25.0):
     return amp * np.exp(-decay * t) * np.sin(2 * np.pi * f * t) * (1 - np.exp(-t * 2000))
 
 
-def record_while(play, seconds):
-    """Record the monitor (both channels) around ``play()``, 0.1 s padding before and after."""
-    with LoopbackRecorder(RATE) as rec:
-        time.sleep(0.1)
-        play()
-        time.sleep(seconds + 0.2)
-    x = np.concatenate(rec.capture.blocks).astype(np.float64)
-    return x
+ATTEMPTS = 3
+
+
+def record_while(play, seconds, *actuators):
+    """Record the monitor (both channels) around ``play()``, 0.1 s padding before and after.
+
+    The project machine's host stalls it for longer than the 'low' buffer now and then
+    (docs/benchmarks.md, "Underflows against the machine's own stalls"). A recording in
+    which ``actuators``' stream underflowed, or the capture overflowed, holds a gap, not
+    what was played: it is counted by the stream and made again, up to ATTEMPTS times.
+    """
+    for _ in range(ATTEMPTS):
+        before = sum(len(a.underflow_times) for a in actuators)
+        with LoopbackRecorder(RATE) as rec:
+            time.sleep(0.1)
+            play()
+            time.sleep(seconds + 0.2)
+        if rec.overflows == 0 and sum(len(a.underflow_times) for a in actuators) == before:
+            return np.concatenate(rec.capture.blocks).astype(np.float64)
+    pytest.fail(f"the machine starved the stream or the capture in each of {ATTEMPTS} recordings")
 
 
 def align(captured, reference):
@@ -50,7 +62,7 @@ def test_played_signal_comes_back_unchanged(soundserver):
     with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
         assert act.spec.rate_hz == RATE
         assert sys.getswitchinterval() <= 0.001  # the Python callback gets the GIL within a block
-        cap = record_while(lambda: act.play(Signal(sig, RATE)), sig.size / RATE)
+        cap = record_while(lambda: act.play(Signal(sig, RATE)), sig.size / RATE, act)
         assert act.limiter_report().total == 0
     got, _ = align(cap[:, 0], sig)
     assert corr(got, sig) > 0.999
@@ -66,7 +78,7 @@ def test_overlapping_impacts_add_up_in_one_stream(soundserver):
             act.play(Signal(a, RATE))
             time.sleep(0.02)  # b starts while a still sounds
             act.play(Signal(b, RATE))
-        cap = record_while(both, 0.1)[:, 0]
+        cap = record_while(both, 0.1, act)[:, 0]
     _, lag_a = align(cap, a)
     # Each impact's onset, from a correlation against the residual:
     rest = cap.copy()
@@ -87,7 +99,7 @@ def test_two_actuators_share_a_device_one_channel_each(soundserver):
     hap = Haptuator(Haptuator.Params(), BuildContext(device="default", channel=1))
     with vib, hap:
         assert vib._stream is hap._stream  # one stream per device
-        cap = record_while(lambda: (vib.play(Signal(a, RATE)), hap.play(Signal(b, RATE))), a.size / RATE)
+        cap = record_while(lambda: (vib.play(Signal(a, RATE)), hap.play(Signal(b, RATE))), a.size / RATE, vib)
     got_a, _ = align(cap[:, 0], a)
     got_b, _ = align(cap[:, 1], b)
     assert corr(got_a, a) > 0.999
@@ -97,7 +109,7 @@ def test_two_actuators_share_a_device_one_channel_each(soundserver):
 def test_a_signal_at_another_rate_is_resampled(soundserver):
     sig1k = impact(n=200, f=80.0)
     with VibroTransducer(VibroTransducer.Params(), BuildContext()) as act:
-        cap = record_while(lambda: act.play(Signal(sig1k, 1000.0)), 0.25)[:, 0]
+        cap = record_while(lambda: act.play(Signal(sig1k, 1000.0)), 0.25, act)[:, 0]
     from hapticfx.shaping import resample
 
     ref = resample(Signal(sig1k, 1000.0), RATE).samples
@@ -172,9 +184,9 @@ def test_an_effect_played_through_the_pipeline_is_heard_as_rendered(soundserver,
     deliveries = []
     with pipeline:
         assert pipeline.actuator.name == "vibro-transducer"
-        cap = record_while(lambda: deliveries.append(pipeline.impact(velocity=3.8)), 0.5)[:, 0]
-    sent = deliveries[0].output.samples
-    assert deliveries[0].output.rate_hz == RATE
+        cap = record_while(lambda: deliveries.append(pipeline.impact(velocity=3.8)), 0.5, pipeline.actuator)[:, 0]
+    sent = deliveries[-1].output.samples  # the recording kept is the last one made
+    assert deliveries[-1].output.rate_hz == RATE
     got, _ = align(cap, sent)
     assert corr(got, sent) > 0.999
     assert np.sqrt(np.mean(got ** 2)) / np.sqrt(np.mean(sent ** 2)) == pytest.approx(1.0, abs=0.01)
