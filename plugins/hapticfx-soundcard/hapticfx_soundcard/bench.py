@@ -114,13 +114,15 @@ class TimedPath:
 @dataclass
 class Rounds:
     """What ``send_rounds`` recorded: the monitor's capture, when the output underflowed during the
-    sends (``time.monotonic()``), how many underflows came before them (streams settling), and the
-    machine's own stalls over the same time."""
+    sends (``time.monotonic()``), how many underflows came before them (streams settling), the
+    machine's own stalls over the same time, and how often the capture itself overflowed (a gap
+    in the recording, where an onset can be missed)."""
 
     capture: Capture
     underflow_times: list[float]
     machine: StallProbe
     settling: int = 0
+    capture_overflows: int = 0
 
     def put_down_to_machine(self, *, within_s: float = 0.02, at_least_s: float = 0.005) -> list[Stall | None]:
         """For each underflow, the longest machine stall of at least ``at_least_s`` that ended
@@ -159,7 +161,7 @@ def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
         every = underflow_times()
         during = [t for t in every if t >= start]
         time.sleep(0.3)
-    return Rounds(rec.capture, during, machine, settling=len(every) - len(during))
+    return Rounds(rec.capture, during, machine, settling=len(every) - len(during), capture_overflows=rec.overflows)
 
 
 def first_sample_latencies(paths: list[TimedPath], capture: Capture, *, gap_s: float) -> dict[str, np.ndarray]:
