@@ -251,8 +251,13 @@ def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_u
         time.sleep(0.5)  # past the stream's start
         before, times_before = act.underflows, act.underflow_times
         t0 = time.monotonic()
-        subprocess.run(["sh", "-c", f"kill -STOP {os.getpid()}; sleep 0.15; kill -CONT {os.getpid()}"], check=True)
-        time.sleep(0.3)
+        # PortAudio learns of the server's underrun from ALSA's pulse plugin, which let 1 of 40 such stops in a
+        # row pass unreported (no ALSA "underrun occurred" either); a stop that shows none is made again.
+        for _ in range(3):
+            subprocess.run(["sh", "-c", f"kill -STOP {os.getpid()}; sleep 0.15; kill -CONT {os.getpid()}"], check=True)
+            time.sleep(0.3)
+            if act.underflows > before:
+                break
         new = act.underflow_times[len(times_before):]
         assert act.underflows > before
         assert len(new) == act.underflows - before
