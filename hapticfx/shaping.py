@@ -52,9 +52,7 @@ def shape(profile: Signal, spec: ActuatorSpec, *, gain: float, scale: float) -> 
         if lo is not None or hi is not None:
             x = causal_butterworth(x, rate, low_hz=lo, high_hz=hi)
         x = taper(x, rate, fade_in_s=FADE_IN_S, fade_out_s=FADE_OUT_S)
-    if spec.rate_hz == rate:
-        return Signal.adopt(x, rate)
-    return Signal.adopt(resample_rate(x, rate, spec.rate_hz), float(rate * rate_ratio(rate, spec.rate_hz)))
+    return resample(Signal.adopt(x, rate), spec.rate_hz)
 
 
 ATOM_CACHE_BYTES = 64 << 20  # shaped atoms kept per pipeline; the least recently used go first
