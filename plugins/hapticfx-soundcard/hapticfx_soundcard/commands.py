@@ -122,8 +122,9 @@ def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
     causes = rounds.put_down_to_machine(within_s=STALL_WINDOW_S, at_least_s=STALL_S)
     typer.echo(
         f"{len(rounds.underflow_times)} stream underflows during the {sends} sends ({rounds.settling} before them, "
-        f"while the streams settled); the recording's own overflows: {rounds.capture_overflows}. Machine stalls over the same {machine.seconds:.0f} s (a probe per CPU, "
-        f"scheduler {machine.policy!r}): {int((stalls >= STALL_S * 1e3).sum())} of {STALL_S * 1e3:g} ms or more, "
+        f"while the streams settled); the recording's own overflows: {rounds.capture_overflows}. Machine stalls "
+        f"over the same {machine.seconds:.0f} s (a probe per CPU, scheduler {machine.policy!r}): "
+        f"{int((stalls >= STALL_S * 1e3).sum())} of {STALL_S * 1e3:g} ms or more, "
         f"{int((stalls >= buffer_s * 1e3).sum())} longer than the buffer"
         + (f", the longest {longest.seconds * 1e3:.1f} ms on CPU {longest.cpu}" if longest else "")
         + "".join(f"; the host's steal time, CPU {cpu}: {s * 1e3:.0f} ms" for cpu, s in machine.steal_s.items())
