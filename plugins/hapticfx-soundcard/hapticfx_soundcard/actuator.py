@@ -139,6 +139,13 @@ class SoundCardActuator(Actuator):
         """When the latest (up to 1,024) underflows were reported, in ``time.monotonic()`` seconds."""
         return tuple(self._require_stream().underflow_times)
 
+    @property
+    def late_callbacks(self) -> tuple[tuple[float, float], ...]:
+        """``(time.monotonic(), gap_s)`` of the latest (up to 1,024) audio callbacks that came longer than
+        the buffer after the one before: a stream left unfed that long, whether or not an underflow was
+        reported for it."""
+        return tuple(self._require_stream().late_callbacks)
+
     def limiter_report(self):
         """What the mixer's safety limiter on this channel did (the sum of overlapping impacts)."""
         return self._require_stream().mixer.report(self.channel)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from hapticfx.errors import DeviceError
@@ -19,6 +19,9 @@ from hapticfx.interfaces import SafetyLimits
 from .devices import import_sounddevice
 from .mixer import Mixer
 from .stallprobe import Stall, StallProbe
+
+if TYPE_CHECKING:
+    from .actuator import SoundCardActuator
 
 CLICK_LEVEL = 0.5
 THRESHOLD = 0.25
@@ -115,14 +118,21 @@ class TimedPath:
 class Rounds:
     """What ``send_rounds`` recorded: the monitor's capture, when the output underflowed during the
     sends (``time.monotonic()``), how many underflows came before them (streams settling), the
-    machine's own stalls over the same time, and how often the capture itself overflowed (a gap
-    in the recording, where an onset can be missed)."""
+    machine's own stalls over the same time, the output's callbacks that came longer than its
+    buffer after the one before (``(time, gap_s)``, during the sends), and how often the capture
+    itself overflowed (a gap in the recording, where an onset can be missed)."""
 
     capture: Capture
     underflow_times: list[float]
     machine: StallProbe
     settling: int = 0
+    late_callbacks: list[tuple[float, float]] = field(default_factory=list)
     capture_overflows: int = 0
+
+    def gap_before(self, t: float, *, within_s: float = 0.005) -> float | None:
+        """The longest late callback's gap (s) within ``within_s`` up to ``t`` (None: none)."""
+        gaps = [gap for when, gap in self.late_callbacks if t - within_s <= when <= t]
+        return max(gaps, default=None)
 
     def put_down_to_machine(self, *, within_s: float = 0.02, at_least_s: float = 0.005) -> list[Stall | None]:
         """For each underflow, the longest machine stall of at least ``at_least_s`` that ended
@@ -135,13 +145,14 @@ class Rounds:
 
 
 def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
-                underflow_times: Callable[[], tuple[float, ...]], velocities=(2.45, 5.2),
+                output: SoundCardActuator, velocities=(2.45, 5.2),
                 progress: Callable[[int], None] | None = None, seed: int = 0) -> Rounds:
     """Send ``n`` rounds while recording the monitor and probing the machine for stalls.
 
     Every round sends once on each path (in a rotating order), ``gap_s`` apart, at a
     velocity drawn from ``velocities``; each path notes the capture-clock time of each
-    send. ``underflow_times()`` gives the output stream's underflow times. Nothing is
+    send. ``output`` (a sound-card actuator) gives its stream's underflow times and late
+    callbacks. Nothing is
     analysed here: the outputs are still open, and an analysis running beside them
     would delay their audio callbacks.
     """
@@ -158,10 +169,12 @@ def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
                 time.sleep(gap_s)
             if progress:
                 progress(i + 1)
-        every = underflow_times()
+        every = output.underflow_times
         during = [t for t in every if t >= start]
+        late = [(t, gap) for t, gap in output.late_callbacks if t >= start]
         time.sleep(0.3)
-    return Rounds(rec.capture, during, machine, settling=len(every) - len(during), capture_overflows=rec.overflows)
+    return Rounds(rec.capture, during, machine, settling=len(every) - len(during), late_callbacks=late,
+                  capture_overflows=rec.overflows)
 
 
 def first_sample_latencies(paths: list[TimedPath], capture: Capture, *, gap_s: float) -> dict[str, np.ndarray]:

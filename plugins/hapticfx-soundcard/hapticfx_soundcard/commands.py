@@ -97,7 +97,7 @@ def _latency_section(effects: list[Path], impacts: int, latency, device: str, ga
                     with Progress(impacts, f"latency {latency}", unit="rounds") as bar:
                         rounds = bench.send_rounds(
                             list(paths.values()), rate, impacts, gap_s=gap_s,
-                            underflow_times=lambda: floor_act.underflow_times, progress=lambda i: bar.update())
+                            output=floor_act, progress=lambda i: bar.update())
             stats = engine.close()
     lat = bench.first_sample_latencies(list(paths.values()), rounds.capture, gap_s=gap_s)
     floor_lat = lat[floor.name] * 1000
@@ -129,13 +129,18 @@ def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
         + (f", the longest {longest.seconds * 1e3:.1f} ms on CPU {longest.cpu}" if longest else "")
         + "".join(f"; the host's steal time, CPU {cpu}: {s * 1e3:.0f} ms" for cpu, s in machine.steal_s.items())
         + f". Underflows within {STALL_WINDOW_S * 1e3:g} ms after such a stall: "
-        f"{sum(c is not None for c in causes)} of {len(causes)}.\n")
+        f"{sum(c is not None for c in causes)} of {len(causes)}. Audio callbacks that came longer than the buffer "
+        f"after the one before (the stream unfed that long): {len(rounds.late_callbacks)}"
+        + (f", the longest gap {max(g for _, g in rounds.late_callbacks) * 1e3:.1f} ms"
+           if rounds.late_callbacks else "") + ".\n")
     if causes:
-        typer.echo("| underflow | machine stall before it |\n|---|---|")
+        typer.echo("| underflow | machine stall before it | callback gap before it |\n|---|---|---|")
         for t, stall in zip(rounds.underflow_times, causes):
             what = (f"{stall.seconds * 1e3:.1f} ms on CPU {stall.cpu}, ended {(t - stall.end) * 1e3:.1f} ms before"
                     if stall else f"none of {STALL_S * 1e3:g} ms or more")
-            typer.echo(f"| +{t - machine.started:.1f} s | {what} |")
+            gap = rounds.gap_before(t)
+            typer.echo(f"| +{t - machine.started:.1f} s | {what} | "
+                       f"{f'{gap * 1e3:.1f} ms' if gap is not None else 'none longer than the buffer'} |")
         typer.echo("")
 
 

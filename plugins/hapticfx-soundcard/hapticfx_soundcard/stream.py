@@ -140,6 +140,10 @@ class DeviceStream:
         self.users: set[int] = set()
         self.underflows = 0
         self.underflow_times: deque[float] = deque(maxlen=1024)  # time.monotonic() of the latest ones
+        # (time.monotonic(), gap) of the latest callbacks that came longer than the buffer after the one before:
+        # the stream went unfed for longer than its buffer holds, whether or not PortAudio reports an underflow.
+        self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
+        self._buffer_s = float("inf")
         self._underflows_told = 0
         self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
         self._started = 0.0
@@ -198,6 +202,7 @@ class DeviceStream:
                 callback=lambda *a: self._callback(generation, *a),
                 finished_callback=lambda: self._finished(generation),
             )
+            self._buffer_s = float(stream.latency)
             self._last_callback = self._started = time.monotonic()
             stream.start()
         except sd.PortAudioError as exc:
@@ -223,7 +228,10 @@ class DeviceStream:
         if generation != self._generation:
             outdata.fill(0.0)
             return
-        self._last_callback = now = time.monotonic()
+        now = time.monotonic()
+        if now - self._last_callback > self._buffer_s:
+            self.late_callbacks.append((now, now - self._last_callback))
+        self._last_callback = now
         if status.output_underflow:
             self.underflows += 1
             self.underflow_times.append(now)

@@ -259,6 +259,8 @@ def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_u
             if act.underflows > before:
                 break
         new = act.underflow_times[len(times_before):]
+        gaps = [gap for t, gap in act.late_callbacks if t > t0]  # on the stream's own clock, whatever is reported
+        assert gaps and 0.1 < max(gaps) < 1.0
         assert act.underflows > before
         assert len(new) == act.underflows - before
         assert all(t0 + 0.05 < t < time.monotonic() for t in new)

@@ -83,3 +83,4 @@ def test_bench_output_times_every_path_against_its_floor(soundserver):
     assert any(line.startswith("| 48 | 1.00 | 1000 |") for line in done.stdout.splitlines())
     assert "Machine stalls over the same" in done.stdout  # the underflows' floor, measured in the same run
     assert "the recording's own overflows: " in done.stdout
+    assert "Audio callbacks that came longer than the buffer after the one before" in done.stdout

@@ -42,3 +42,9 @@ def test_an_underflow_is_put_down_to_a_long_enough_stall_just_before_it():
     rounds = Rounds(Capture(48000.0), [10.02, 20.01, 30.05, 40.0, 9.0], probe)
     found = rounds.put_down_to_machine(within_s=0.1, at_least_s=0.005)
     assert found == [probe.stalls[0], None, probe.stalls[3], None, None]
+
+
+def test_an_underflow_is_matched_to_the_longest_late_callback_just_before_it():
+    rounds = Rounds(Capture(48000.0), [10.0, 20.0, 30.0], StallProbe(),
+                    late_callbacks=[(9.998, 0.012), (9.9985, 0.020), (19.9, 0.015), (30.001, 0.03)])
+    assert [rounds.gap_before(t) for t in rounds.underflow_times] == [0.020, None, None]
