@@ -166,7 +166,8 @@ def bench_output(
     engine's queue and worker, shaping, the limiters and the mixer; the floor is a ready
     click written into the same stream in the same run. The stream's underflows are set
     against the machine's own stalls over the same time (a probe per CPU, at real-time
-    priority where permitted). Needs a sound server whose default input records the
+    priority where permitted) and against the stream's late callbacks (gaps longer than
+    its buffer, on its own clock). Needs a sound server whose default input records the
     output (the PulseAudio null sink of .ci/soundserver.sh).
     Capacity: the audio callback's wall time at the block sizes PortAudio uses here,
     against the block's period. Recovery: a private server (.ci/soundserver.sh) stalled
