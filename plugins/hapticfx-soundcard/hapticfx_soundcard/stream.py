@@ -144,6 +144,7 @@ class DeviceStream:
         # the stream went unfed for longer than its buffer holds, whether or not PortAudio reports an underflow.
         self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
         self._buffer_s = float("inf")
+        self._longest_gap_s = 0.0  # since the last underflow warning: how long a buffer would have held
         self._underflows_told = 0
         self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
         self._started = 0.0
@@ -231,6 +232,7 @@ class DeviceStream:
         now = time.monotonic()
         if now - self._last_callback > self._buffer_s:
             self.late_callbacks.append((now, now - self._last_callback))
+            self._longest_gap_s = max(self._longest_gap_s, now - self._last_callback)
         self._last_callback = now
         if status.output_underflow:
             self.underflows += 1
@@ -268,11 +270,13 @@ class DeviceStream:
         if not new:
             return
         self._underflows_told = self.underflows
+        gap, self._longest_gap_s = self._longest_gap_s, 0.0
         if now - self._started > START_S:
+            waited = f"; the longest wait between two audio callbacks was {gap * 1e3:.1f} ms" if gap else ""
             self._underflow_log.event("underflow", (
                 f"sound output {self.device.name!r}: {new} underflow(s), gaps in the sound (its buffer holds "
-                f"{self.output_latency_s * 1e3:.1f} ms and was not refilled in time); if they go on, give the "
-                f"actuator a longer latency (e.g. latency: 0.03) or run less beside it"))
+                f"{self.output_latency_s * 1e3:.1f} ms and was not refilled in time{waited}); if they go on, give "
+                f"the actuator a longer latency (e.g. latency: 0.03) or run less beside it"))
 
     def _watch(self) -> None:
         period = min(0.05, self.watchdog_s / 4)

@@ -1,8 +1,8 @@
 """The actuators on a real PulseAudio null sink, recorded back from its monitor."""
 
-import time
-
+import re
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -267,5 +267,7 @@ def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_u
     # one line at once; any more within 10 s (a busy host adds its own) are counted in one line at close
     told = [r.getMessage() for r in caplog.records if "gaps in the sound" in r.getMessage()]
     assert 1 <= len(told) <= 2, told
+    waited = re.search(r"the longest wait between two audio callbacks was ([0-9.]+) ms", told[0])
+    assert waited and 100 < float(waited.group(1)) < 1000, told[0]  # the stop, which a buffer would have to hold
     assert "default" in told[0] and "latency: 0.03" in told[0] and " ms and was not refilled" in told[0]
     assert all(line.endswith("more like it, not logged)") for line in told[1:])
