@@ -104,4 +104,5 @@ class ShapedAtoms:
     def shape(self, terms: Terms, spec: ActuatorSpec) -> Signal:
         """``shape(terms.profile(), spec, ...)``, from the shaped atoms."""
         shaped = [self._atom(term, terms.rate_hz, spec) for term in terms.items]
-        return Signal.adopt(weighted_sum((t.weight, a.samples) for t, a in zip(terms.items, shaped)), shaped[0].rate_hz)
+        samples = weighted_sum((t.weight, a.samples) for t, a in zip(terms.items, shaped))
+        return Signal.adopt(samples, shaped[0].rate_hz)

@@ -1,7 +1,7 @@
 """How late the machine wakes a sleeping thread, per CPU: the floor under stream underflows.
 
 An output stream underflows when the thread that feeds it is not run for longer than
-the buffer holds. On a virtual machine a CPU can be taken away by the host for more
+the buffer holds. On a virtual machine a CPU can be lost below user space for more
 than a 'low' buffer (11-12 ms on the 2-vCPU project machine, measured with
 ``cyclictest`` on an idle machine), and no program inside can prevent that. To tell
 such underflows from ours, ``hapticfx bench output`` runs this probe beside its sends:
@@ -9,7 +9,8 @@ one process per CPU, pinned to it, at the highest real-time priority where the s
 permits (then only the kernel and the host can delay it: not the sound server's
 real-time threads, our Python threads or the GIL). Each wakes every ``period`` and
 notes every wake-up later than ``threshold``. The host's own account of the time it
-took each CPU away (``steal`` in ``/proc/stat``) is read at both ends.
+took each CPU away (``steal`` in ``/proc/stat``) is read at both ends; on the project
+machine it accounts for part of the stalls only (docs/benchmarks.md).
 
 Run as ``python -m hapticfx_soundcard.stallprobe CPU PERIOD_S THRESHOLD_S``: it prints
 ``ready POLICY`` once running and, when its stdin closes, one JSON line with the

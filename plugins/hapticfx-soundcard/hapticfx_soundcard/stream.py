@@ -230,10 +230,10 @@ class DeviceStream:
             outdata.fill(0.0)
             return
         now = time.monotonic()
-        if now - self._last_callback > self._buffer_s:
-            self.late_callbacks.append((now, now - self._last_callback))
-            self._longest_gap_s = max(self._longest_gap_s, now - self._last_callback)
-        self._last_callback = now
+        gap, self._last_callback = now - self._last_callback, now
+        if gap > self._buffer_s:
+            self.late_callbacks.append((now, gap))
+            self._longest_gap_s = max(self._longest_gap_s, gap)
         if status.output_underflow:
             self.underflows += 1
             self.underflow_times.append(now)
