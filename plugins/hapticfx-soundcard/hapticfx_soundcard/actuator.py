@@ -31,6 +31,9 @@ class SoundCardParams:
     rate_hz: int = field(default=48000, metadata=doc("requested sample rate; the device default if refused", min=8000, max=768000))
     latency: Literal["low", "high"] | float = field(
         default="low", metadata=doc("output latency: PortAudio's 'low' or 'high' class, or seconds", min=0.001, max=1.0))
+    max_latency: float = field(default=0.03, metadata=doc(
+        "after underflows the buffer is lengthened, up to this many seconds, to hold the machine's longest "
+        "wait; 0 keeps the buffer latency sets", min=0.0, max=1.0))
     blocksize: int = field(default=0, metadata=doc("frames per audio callback; 0 lets the host choose", min=0, max=8192))
     max_impacts: int = field(default=1000, metadata=doc(
         "impacts sounding at once; one more is not mixed in (1000 fit a 48-frame block: docs/benchmarks.md)",
@@ -81,7 +84,7 @@ class SoundCardActuator(Actuator):
         p = self.params
         self._stream = streams.acquire(
             device, channel=self.channel, rate_hz=rate, limits=self.limits, latency=p.latency,
-            blocksize=p.blocksize, max_voices=p.max_impacts, watchdog_s=p.watchdog_s,
+            max_latency=p.max_latency, blocksize=p.blocksize, max_voices=p.max_impacts, watchdog_s=p.watchdog_s,
         )
 
     def _require_stream(self) -> streams.DeviceStream:
@@ -133,6 +136,12 @@ class SoundCardActuator(Actuator):
     def output_latency_s(self) -> float:
         """The device stream's output latency (its buffer), as PortAudio reports it."""
         return self._require_stream().output_latency_s
+
+    @property
+    def buffer_changes(self) -> tuple[tuple[float, float, float], ...]:
+        """``(time.monotonic(), from_s, to_s)`` of each time the stream was reopened with a longer buffer
+        after underflows (``max_latency``)."""
+        return tuple(self._require_stream().buffer_changes)
 
     @property
     def underflow_times(self) -> tuple[float, ...]:

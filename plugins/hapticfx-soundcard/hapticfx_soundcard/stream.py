@@ -9,6 +9,15 @@ counted as lost, and until the device is back every ``play`` raises
 watchdog then brings the output back: a stalled stream that resumes is taken
 again as it is; a stream that stopped is reopened, every ``RETRY_S``, until the
 device answers. Nothing waits on a dead stream.
+
+A stream that underflows after its start is reopened with a longer buffer, up to
+``max_latency``: at least twice the one it had, and long enough for the longest wait
+between two audio callbacks that was seen (the machine not running its feeder). The
+switch waits until the mixer has been silent for longer than the old buffer (at most
+``GROW_WAIT_S``), so that it cuts off nothing: what the old stream still held is
+dropped with it. Sound
+servers do the same with their own buffers (PulseAudio raises its wake-up watermark
+after an underrun).
 """
 
 from __future__ import annotations
@@ -36,6 +45,8 @@ RETRY_S = 0.2  # between attempts to reopen a stream that stopped
 START_S = 0.25  # an underflow this soon after a stream starts is its start (seen at +15 ms), not a gap in the sound
 UNDERFLOW_LOG_S = 10.0  # at most one underflow warning per stream in this time
 SWITCH_INTERVAL_S = 0.001
+GROW_WAIT_S = 1.0  # a longer buffer waits this long at most for silence before it is switched in
+GROW_MARGIN = 1.5  # a lengthened buffer holds this many times the longest wait between callbacks
 GC_FREEZE_ENV = "HAPTICFX_GC_FREEZE"  # "0": leave the garbage collector as it is
 
 _streams: dict[int, "DeviceStream"] = {}
@@ -59,16 +70,17 @@ def _freeze_heap() -> None:
 
 
 def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: SafetyLimits,
-            latency: str | float, blocksize: int, max_voices: int, watchdog_s: float) -> "DeviceStream":
+            latency: str | float, max_latency: float, blocksize: int, max_voices: int,
+            watchdog_s: float) -> "DeviceStream":
     """The running stream of ``device`` with ``channel`` reserved (opened on first use).
 
-    The first actuator on a device sets the stream's latency, block size and voice count.
+    The first actuator on a device sets the stream's latency, its longest, block size and voice count.
     """
     with _streams_lock:
         stream = _streams.get(device.index)
         if stream is None:
             _freeze_heap()
-            stream = DeviceStream(device, rate_hz, latency=latency, blocksize=blocksize,
+            stream = DeviceStream(device, rate_hz, latency=latency, max_latency=max_latency, blocksize=blocksize,
                                   max_voices=max_voices, watchdog_s=watchdog_s)
             _streams[device.index] = stream
         elif stream.rate_hz != rate_hz:
@@ -129,11 +141,15 @@ def _abort(stream, *, wait_s: float) -> bool:
 class DeviceStream:
     """A running output stream on one device, mixing impacts on its channels, reopened after an outage."""
 
-    def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, blocksize: int,
-                 max_voices: int, watchdog_s: float):
+    def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, max_latency: float = 0.0,
+                 blocksize: int, max_voices: int, watchdog_s: float):
         self.device = device
         self.rate_hz = float(rate_hz)
         self.latency = latency
+        self.max_latency_s = max_latency  # the buffer may be lengthened up to this after underflows (0: never)
+        self.buffer_changes: list[tuple[float, float, float]] = []  # (time.monotonic(), from_s, to_s)
+        self._grow_to = 0.0  # a longer buffer waiting for silence to be switched in (0: none)
+        self._grow_since = 0.0
         self.blocksize = blocksize
         self.watchdog_s = watchdog_s
         self.mixer = Mixer(min(2, device.channels), self.rate_hz, max_voices=max_voices)
@@ -265,21 +281,45 @@ class DeviceStream:
         log.warning("sound output %r is back after %.2f s (%s)", self.device.name, down, how)
 
     def _tell_underflows(self, now: float) -> None:
-        """Warn (at a bounded rate) of underflows since the last look, other than a stream's start."""
+        """Warn (at a bounded rate) of underflows since the last look, other than a stream's start,
+        and plan a longer buffer where ``max_latency`` allows one."""
         new = self.underflows - self._underflows_told
         if not new:
             return
         self._underflows_told = self.underflows
         gap, self._longest_gap_s = self._longest_gap_s, 0.0
-        if now - self._started > START_S:
-            waited = f"; the longest wait between two audio callbacks was {gap * 1e3:.1f} ms" if gap else ""
-            self._underflow_log.event("underflow", (
-                f"sound output {self.device.name!r}: {new} underflow(s), gaps in the sound (its buffer holds "
-                f"{self.output_latency_s * 1e3:.1f} ms and was not refilled in time{waited}); if they go on, give "
-                f"the actuator a longer latency (e.g. latency: 0.03) or run less beside it"))
+        if now - self._started <= START_S:
+            return
+        waited = f"; the longest wait between two audio callbacks was {gap * 1e3:.1f} ms" if gap else ""
+        grow_to = min(self.max_latency_s, max(2 * self._buffer_s, GROW_MARGIN * gap, self._grow_to))
+        if grow_to > self._buffer_s + 0.0005:
+            if not self._grow_to:
+                self._grow_since = now
+            self._grow_to = grow_to
+            remedy = (f"lengthening it to {grow_to * 1e3:.1f} ms (max_latency: {self.max_latency_s:g}) "
+                      f"when nothing sounds")
+        else:
+            remedy = ("if they go on, give the actuator a longer latency or max_latency (e.g. latency: 0.03) "
+                      "or run less beside it")
+        self._underflow_log.event("underflow", (
+            f"sound output {self.device.name!r}: {new} underflow(s), gaps in the sound (its buffer holds "
+            f"{self._buffer_s * 1e3:.1f} ms and was not refilled in time{waited}); {remedy}"))
+
+    def _grow(self, now: float) -> None:
+        """Reopen the stream with the longer buffer planned by :meth:`_tell_underflows`."""
+        was, self.latency, self._grow_to = self._buffer_s, self._grow_to, 0.0
+        try:
+            self._open()
+        except DeviceError as exc:
+            self._lose(f"reopening it with a {self.latency * 1e3:.1f} ms buffer failed ({exc})")
+            return
+        self.buffer_changes.append((now, was, self._buffer_s))
+        log.warning("sound output %r: buffer lengthened from %.1f to %.1f ms after underflows",
+                    self.device.name, was * 1e3, self._buffer_s * 1e3)
 
     def _watch(self) -> None:
         period = min(0.05, self.watchdog_s / 4)
+        quiet_since = None  # since when the mixer has had nothing to play, while a longer buffer waits
         while not self._stop.wait(period):
             now = time.monotonic()
             silent = now - self._last_callback
@@ -287,6 +327,10 @@ class DeviceStream:
                 if silent > self.watchdog_s:
                     self._lose(f"no audio callback for {silent:.2f} s (sound server stalled or gone)")
                 self._tell_underflows(now)
+                quiet_since = None if not self._grow_to or self.mixer.busy else quiet_since or now
+                if self._grow_to and self.outage is None and (
+                        (quiet_since and now - quiet_since > self._buffer_s) or now - self._grow_since > GROW_WAIT_S):
+                    self._grow(now)
                 continue
             stream = self._stream
             if stream is not None and stream.active:

@@ -239,31 +239,41 @@ def test_opening_a_stream_takes_the_heap_out_of_full_collections(soundserver, se
     assert before == 0 and (after > 1000) == frozen and (after == 0) == (not frozen)
 
 
-def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_underflow(soundserver, caplog):
-    """This whole process is stopped (SIGSTOP, from a child) for 150 ms, longer than the 8.7 ms
-    'low' buffer: what a host taking the CPU away does, and what ``bench output`` reports. The
-    user is told once, with the remedy; an underflow as the stream starts is not a gap and is not told."""
+def stop_this_process_until_an_underflow(act, seconds=0.15):
+    """Stop this whole process (SIGSTOP, from a child) for ``seconds``, longer than the 8.7 ms 'low'
+    buffer: what a host taking the CPU away does. Returns when the stop began."""
     import os
     import subprocess
 
-    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
+    before = act.underflows
+    t0 = time.monotonic()
+    # PortAudio learns of the server's underrun from ALSA's pulse plugin, which let 1 of 40 such stops in a
+    # row pass unreported (no ALSA "underrun occurred" either); a stop that shows none is made again.
+    for _ in range(3):
+        subprocess.run(["sh", "-c", f"kill -STOP {os.getpid()}; sleep {seconds}; kill -CONT {os.getpid()}"],
+                       check=True)
+        time.sleep(0.3)
+        if act.underflows > before:
+            break
+    return t0
+
+
+def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_underflow(soundserver, caplog):
+    """What ``bench output`` reports of a stop; the user is told once, with the remedy; an underflow
+    as the stream starts is not a gap and is not told. ``max_latency: 0`` keeps the buffer."""
+    with VibroTransducer(VibroTransducer.Params(max_latency=0.0), BuildContext(device="default")) as act:
         assert 0.001 < act.output_latency_s < 0.06
         time.sleep(0.5)  # past the stream's start
-        before, times_before = act.underflows, act.underflow_times
-        t0 = time.monotonic()
-        # PortAudio learns of the server's underrun from ALSA's pulse plugin, which let 1 of 40 such stops in a
-        # row pass unreported (no ALSA "underrun occurred" either); a stop that shows none is made again.
-        for _ in range(3):
-            subprocess.run(["sh", "-c", f"kill -STOP {os.getpid()}; sleep 0.15; kill -CONT {os.getpid()}"], check=True)
-            time.sleep(0.3)
-            if act.underflows > before:
-                break
+        before, times_before, buffer = act.underflows, act.underflow_times, act.output_latency_s
+        t0 = stop_this_process_until_an_underflow(act)
         new = act.underflow_times[len(times_before):]
         gaps = [gap for t, gap in act.late_callbacks if t > t0]  # on the stream's own clock, whatever is reported
         assert gaps and 0.1 < max(gaps) < 1.0
         assert act.underflows > before
         assert len(new) == act.underflows - before
         assert all(t0 + 0.05 < t < time.monotonic() for t in new)
+        time.sleep(0.2)
+        assert act.buffer_changes == () and act.output_latency_s == buffer
     # one line at once; any more within 10 s (a busy host adds its own) are counted in one line at close
     told = [r.getMessage() for r in caplog.records if "gaps in the sound" in r.getMessage()]
     assert 1 <= len(told) <= 2, told
@@ -271,3 +281,44 @@ def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_u
     assert waited and 100 < float(waited.group(1)) < 1000, told[0]  # the stop, which a buffer would have to hold
     assert "default" in told[0] and "latency: 0.03" in told[0] and " ms and was not refilled" in told[0]
     assert all(line.endswith("more like it, not logged)") for line in told[1:])
+
+
+@pytest.mark.parametrize("max_latency", [0.02, 0.05])
+def test_after_an_underflow_the_buffer_is_lengthened_up_to_max_latency_and_still_plays(soundserver, caplog,
+                                                                                        max_latency):
+    """The 150 ms stop asks for more than either cap: the stream is reopened at the cap (at least twice
+    the 8.7 ms it had), is told of once, and what is played after comes back unchanged."""
+    with VibroTransducer(VibroTransducer.Params(max_latency=max_latency), BuildContext(device="default")) as act:
+        time.sleep(0.5)
+        was = act.output_latency_s
+        t0 = stop_this_process_until_an_underflow(act)
+        time.sleep(0.3)
+        assert len(act.buffer_changes) == 1, act.buffer_changes
+        when, before, after = act.buffer_changes[0]
+        assert t0 < when < time.monotonic() and before == was
+        assert after == pytest.approx(max_latency, rel=0.05) == act.output_latency_s
+        sig = impact()
+        got = record_while(lambda: act.play(Signal(sig, RATE)), 0.2, act)
+    aligned, _ = align(got[:, 0], sig)
+    assert corr(aligned, sig) > 0.99
+    told = [r.getMessage() for r in caplog.records if "gaps in the sound" in r.getMessage()]
+    assert f"lengthening it to {max_latency * 1e3:.1f} ms (max_latency: {max_latency:g})" in told[0]
+    grown = [r.getMessage() for r in caplog.records if "buffer lengthened" in r.getMessage()]
+    assert grown == [f"sound output 'default': buffer lengthened from {was * 1e3:.1f} to {after * 1e3:.1f} ms "
+                     "after underflows"]
+
+
+def test_a_longer_buffer_waits_until_nothing_sounds(soundserver):
+    """Reopening drops what the old stream held: an impact sounding at the stop is not cut by the switch."""
+    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
+        time.sleep(0.5)
+        act.play(Signal(np.full(int(0.8 * RATE), 0.1), RATE))
+        played = time.monotonic()
+        time.sleep(0.1)
+        stop_this_process_until_an_underflow(act)
+        act.drain()
+        time.sleep(0.2)
+        changes = act.buffer_changes
+    assert len(changes) == 1
+    # it sounded 0.8 s, plus the 150 ms stop; the stream's buffer played on after the mixer went quiet
+    assert changes[0][0] > played + 0.8 + 0.15 + changes[0][1]
