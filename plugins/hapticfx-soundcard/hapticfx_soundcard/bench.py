@@ -112,6 +112,7 @@ class TimedPath:
     channel: int
     signals: list = field(default_factory=list)  # what reached the device, in order (None: not played)
     calls: list = field(default_factory=list)    # capture-clock time of each send
+    buffers_s: list = field(default_factory=list)  # the output's buffer at each send (lengthened after underflows)
 
 
 @dataclass
@@ -151,8 +152,8 @@ def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
 
     Every round sends once on each path (in a rotating order), ``gap_s`` apart, at a
     velocity drawn from ``velocities``; each path notes the capture-clock time of each
-    send. ``output`` (a sound-card actuator) gives its stream's underflow times and late
-    callbacks. Nothing is analysed here: the outputs are still open, and an analysis
+    send and the output's buffer then. ``output`` (a sound-card actuator) gives its stream's
+    buffer, underflow times and late callbacks. Nothing is analysed here: the outputs are still open, and an analysis
     running beside them would delay their audio callbacks.
     """
     rng = np.random.default_rng(seed)
@@ -164,6 +165,7 @@ def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
             for p in paths[k:] + paths[:k]:
                 v = float(rng.uniform(*velocities))
                 p.calls.append(rec.now())
+                p.buffers_s.append(output.output_latency_s)
                 p.send(v)
                 time.sleep(gap_s)
             if progress:

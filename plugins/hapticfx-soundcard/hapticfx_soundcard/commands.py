@@ -48,7 +48,8 @@ STALL_WINDOW_S = 0.02
 BLOCKS = (48, 104, 256)  # 48: PortAudio's block at a 4 ms buffer here; 104: at 'low'; 256: a common setting
 
 
-def _latency_section(effects: list[Path], impacts: int, latency, device: str, gap_s: float) -> None:
+def _latency_section(effects: list[Path], impacts: int, latency, max_latency: float | None, device: str,
+                     gap_s: float) -> None:
     import socket
     import tempfile
 
@@ -62,8 +63,9 @@ def _latency_section(effects: list[Path], impacts: int, latency, device: str, ga
     with tempfile.TemporaryDirectory() as tmp:
         scene = Path(tmp) / "bench-output.yaml"
         names = [p.stem for p in effects]
+        options = {"latency": latency} if max_latency is None else {"latency": latency, "max_latency": max_latency}
         lines = [f"name: bench-output\nactuators:\n  helmet: {{type: vibro-transducer, device: {device!r}, "
-                 f"latency: {latency!r}}}\neffects:"]
+                 + ", ".join(f"{k}: {v!r}" for k, v in options.items()) + "}\neffects:"]
         osc_object = names[-2] if len(names) > 1 else names[0]
         entries = [*zip(names, effects), (f"osc-{osc_object}", effects[names.index(osc_object)])]
         lines += [f"  {n}: {{effect: {str(p.resolve())!r}, actuator: helmet, channel: 0}}" for n, p in entries]
@@ -74,7 +76,7 @@ def _latency_section(effects: list[Path], impacts: int, latency, device: str, ga
             paths[p.object].signals.append(p.signal.samples)
 
         with Engine(scene, on_played=played) as engine:
-            floor_act = VibroTransducer(VibroTransducer.Params(latency=latency), BuildContext(device=device, channel=1))
+            floor_act = VibroTransducer(VibroTransducer.Params(**options), BuildContext(device=device, channel=1))
             with floor_act:
                 rate = floor_act.spec.rate_hz
                 ready = bench.click(rate)
@@ -94,24 +96,33 @@ def _latency_section(effects: list[Path], impacts: int, latency, device: str, ga
                     paths[f"osc-{osc_object}"] = bench.TimedPath(f"OSC datagram, {osc_object}", lambda v: client.sendto(
                         encode_impact(f"osc-{osc_object}", v), addr), 0)
                     buffer_s = floor_act.output_latency_s
+                    cap = floor_act.params.max_latency
                     with Progress(impacts, f"latency {latency}", unit="rounds") as bar:
                         rounds = bench.send_rounds(
                             list(paths.values()), rate, impacts, gap_s=gap_s,
                             output=floor_act, progress=lambda i: bar.update())
             stats = engine.close()
     lat = bench.first_sample_latencies(list(paths.values()), rounds.capture, gap_s=gap_s)
-    floor_lat = lat[floor.name] * 1000
-    heard = floor_lat[~np.isnan(floor_lat)]
-    ref = (np.median(heard), np.percentile(heard, 99)) if heard.size else None
+    buffers = list(dict.fromkeys(b for p in paths.values() for b in p.buffers_s))  # in the order they ran
     typer.echo(f"\n### stream latency {latency}: {impacts} impacts per path, {gap_s:g} s apart, paths interleaved; "
-               f"output buffer {buffer_s * 1e3:.1f} ms; engine: {stats['rendered']} played, "
-               f"{stats['failed']} failed, {stats['dropped_queue_full']} dropped\n")
+               f"output buffer {buffer_s * 1e3:.1f} ms (max_latency {cap:g} s"
+               + "".join(f"; then {b * 1e3:.1f} ms" for b in buffers[1:])
+               + f"); engine: {stats['rendered']} played, {stats['failed']} failed, "
+               f"{stats['dropped_queue_full']} dropped\n")
     _underflow_report(rounds, impacts * len(paths), buffer_s)
-    typer.echo("| path (ms) | median | p99 | min | max | not heard | median - floor | p99 - floor |\n"
-               "|---|---:|---:|---:|---:|---:|---:|---:|")
-    for key, p in paths.items():
-        label = p.name if key == "floor" or key.startswith("osc-") else f"Engine.impact, {p.name}"
-        typer.echo(_row(label, lat[p.name], None if key == "floor" else ref))
+    for b in buffers:
+        at = {key: np.array(p.buffers_s) == b for key, p in paths.items()}
+        if len(buffers) > 1:
+            typer.echo(f"Sent while the output buffer was {b * 1e3:.1f} ms ({int(at['floor'].sum())} floor clicks):\n")
+        floor_lat = lat[floor.name][at["floor"]] * 1000
+        heard = floor_lat[~np.isnan(floor_lat)]
+        ref = (np.median(heard), np.percentile(heard, 99)) if heard.size else None
+        typer.echo("| path (ms) | median | p99 | min | max | not heard | median - floor | p99 - floor |\n"
+                   "|---|---:|---:|---:|---:|---:|---:|---:|")
+        for key, p in paths.items():
+            label = p.name if key == "floor" or key.startswith("osc-") else f"Engine.impact, {p.name}"
+            typer.echo(_row(label, lat[p.name][at[key]], None if key == "floor" else ref))
+        typer.echo("")
 
 
 def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
@@ -151,6 +162,9 @@ def bench_output(
     latencies: list[str] = typer.Option(["low"], "--latency",
                                         callback=lambda values: [_latency(v) for v in values],
                                         help="Stream latency to time: 'low', 'high' or seconds (repeatable)."),
+    max_latency: Optional[float] = typer.Option(None, "--max-latency", min=0.0, max=1.0,
+                                                help="Longest buffer the stream may grow to after underflows "
+                                                     "(0: never; default: the actuator's shipped max_latency)."),
     gap: float = typer.Option(0.55, "--gap", min=0.05, help="Seconds between impacts (longer than one impact)."),
     device: str = typer.Option("default", "--device", "-d", help="Sound output to time (its monitor must be the default input)."),
     seconds: float = typer.Option(2.0, "--seconds", min=0.1, help="Audio seconds mixed per capacity point."),
@@ -167,8 +181,9 @@ def bench_output(
     click written into the same stream in the same run. The stream's underflows are set
     against the machine's own stalls over the same time (a probe per CPU, at real-time
     priority where permitted) and against the stream's late callbacks (gaps longer than
-    its buffer, on its own clock). Needs a sound server whose default input records the
-    output (the PulseAudio null sink of .ci/soundserver.sh).
+    its buffer, on its own clock). Where underflows lengthen the stream's buffer (up to
+    max_latency), the latency table is given for each buffer. Needs a sound server whose
+    default input records the output (the PulseAudio null sink of .ci/soundserver.sh).
     Capacity: the audio callback's wall time at the block sizes PortAudio uses here,
     against the block's period. Recovery: a private server (.ci/soundserver.sh) stalled
     for 1 s or killed and restarted under a playing actuator.
@@ -181,7 +196,7 @@ def bench_output(
             raise SignalError(f"{p}: no such effect file (run from the repository root, or name effect files)")
     typer.echo(f"## impact to first sample (ms), {len(paths)} models")
     for latency in latencies:
-        _latency_section(paths, impacts, latency, device, gap)
+        _latency_section(paths, impacts, latency, max_latency, device, gap)
 
     typer.echo(f"\n## mixer capacity (one core, 48 kHz, limiter on; {seconds:g} s of audio per point)\n")
     typer.echo("| block (frames) | period ms | impacts at once | callback median ms | p99 | max | p99 / period "
