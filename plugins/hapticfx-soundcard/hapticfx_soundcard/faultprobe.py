@@ -7,7 +7,7 @@ again by .ci/soundserver.sh, whose path is in ``HAPTICFX_SOUNDSERVER``). Prints 
 ``key value`` line per observation; exits 0 when it survived. ``recovered_s`` is
 from the server's return (continued, or answering ``pactl info`` again) to the
 first impact the actuator takes again; ``heard`` counts the clicks then recorded
-from the sink's monitor.
+from the sink's monitor; ``buffer_changes`` how often the stream's buffer was lengthened.
 """
 
 import os
@@ -106,6 +106,7 @@ if mode in ("stall-resume", "restart"):
         time.sleep(0.4)
     x, t = rec.capture.timeline(0)
     say("heard", len(onsets(x, t)))
+    say("buffer_changes", len(act.buffer_changes))
     if mode == "restart":
         server.wait(timeout=30)  # the script's keep-alive and settle time
 

@@ -277,6 +277,8 @@ class DeviceStream:
         with self._state:
             down = time.monotonic() - self._outage_since
             self.outage = None
+            # the underflows of the return are the outage's, told already: the stream starts again
+            self._started = time.monotonic()
         self.downtime_s.append(down)
         log.warning("sound output %r is back after %.2f s (%s)", self.device.name, down, how)
 

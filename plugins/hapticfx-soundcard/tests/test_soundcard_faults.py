@@ -67,5 +67,6 @@ def test_impacts_are_heard_again_once_the_server_is_back(mode, tmp_path):
     assert float(seen["detected_s"]) < 1.0
     assert seen["recovered_s"] != "never"
     assert seen["heard"] == "1"
+    assert seen["buffer_changes"] == "0"  # the gap of an outage is not one that a longer buffer would hold
     assert float(seen["close_s"]) < 1.5
     assert quiet(stderr)
