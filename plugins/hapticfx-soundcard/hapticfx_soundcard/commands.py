@@ -147,8 +147,9 @@ def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
     if causes:
         typer.echo("| underflow | machine stall before it | callback gap before it |\n|---|---|---|")
         for t, stall in zip(rounds.underflow_times, causes):
-            what = (f"{stall.seconds * 1e3:.1f} ms on CPU {stall.cpu}, ended {(t - stall.end) * 1e3:.1f} ms before"
-                    if stall else f"none of {STALL_S * 1e3:g} ms or more")
+            what = (f"{stall.seconds * 1e3:.1f} ms on CPU {stall.cpu}"
+                    f"{' (every CPU at once)' if machine.everywhere(stall) else ''}, "
+                    f"ended {(t - stall.end) * 1e3:.1f} ms before" if stall else f"none of {STALL_S * 1e3:g} ms or more")
             gap = rounds.gap_before(t)
             typer.echo(f"| +{t - machine.started:.1f} s | {what} | "
                        f"{f'{gap * 1e3:.1f} ms' if gap is not None else 'none longer than the buffer'} |")

@@ -95,6 +95,13 @@ class StallProbe:
         self.stalls.sort(key=lambda s: s.start)
         return False
 
+    def everywhere(self, stall: Stall) -> bool:
+        """Whether every other CPU probed stalled at some time during ``stall`` too: the whole
+        machine paused, not one CPU busy with something else."""
+        others = (set(self._cpus) | {s.cpu for s in self.stalls}) - {stall.cpu}
+        return bool(others) and all(
+            any(s.cpu == cpu and s.start < stall.end and stall.start < s.end for s in self.stalls) for cpu in others)
+
     def before(self, t: float, *, within_s: float) -> Stall | None:
         """The longest stall that ended in the ``within_s`` seconds before (or at) ``t``."""
         near = [s for s in self.stalls if t - within_s <= s.end <= t + self.period_s]

@@ -48,3 +48,13 @@ def test_an_underflow_is_matched_to_the_longest_late_callback_just_before_it():
     rounds = Rounds(Capture(48000.0), [10.0, 20.0, 30.0], StallProbe(),
                     late_callbacks=[(9.998, 0.012), (9.9985, 0.020), (19.9, 0.015), (30.001, 0.03)])
     assert [rounds.gap_before(t) for t in rounds.underflow_times] == [0.020, None, None]
+
+
+def test_a_stall_is_everywhere_when_every_other_cpu_stalled_during_it():
+    probe = StallProbe()
+    probe.stalls = [Stall(0, 10.0, 0.012), Stall(1, 10.005, 0.010),  # overlapping: the machine paused
+                    Stall(0, 20.0, 0.012), Stall(1, 20.013, 0.010),  # one after the other
+                    Stall(1, 30.0, 0.008)]                           # one CPU only
+    assert [probe.everywhere(s) for s in probe.stalls] == [True, True, False, False, False]
+    probe._cpus = [0, 1, 2]  # a third CPU that never stalled
+    assert not probe.everywhere(probe.stalls[0])
