@@ -106,36 +106,47 @@ def _latency_section(effects: list[Path], impacts: int, latency, max_latency: fl
     buffers = list(dict.fromkeys(b for p in paths.values() for b in p.buffers_s))  # in the order they ran
     typer.echo(f"\n### stream latency {latency}: {impacts} impacts per path, {gap_s:g} s apart, paths interleaved; "
                f"output buffer {buffer_s * 1e3:.1f} ms (max_latency {cap:g} s"
-               + "".join(f"; then {b * 1e3:.1f} ms" for b in buffers[1:])
+               + "".join(f"; then {b * 1e3:.1f} ms" for b in buffers if b != buffer_s)
                + f"); engine: {stats['rendered']} played, {stats['failed']} failed, "
                f"{stats['dropped_queue_full']} dropped\n")
     _underflow_report(rounds, impacts * len(paths), buffer_s)
+    typer.echo("\n".join(_latency_tables(paths, lat)))
+
+
+def _latency_tables(paths: dict, lat: dict[str, np.ndarray]) -> list[str]:
+    """One table per output buffer the run used (in order), each path against the floor clicks
+    (``paths["floor"]``) sent at that buffer."""
+    buffers = list(dict.fromkeys(b for p in paths.values() for b in p.buffers_s))
+    out = []
     for b in buffers:
         at = {key: np.array(p.buffers_s) == b for key, p in paths.items()}
         if len(buffers) > 1:
-            typer.echo(f"Sent while the output buffer was {b * 1e3:.1f} ms ({int(at['floor'].sum())} floor clicks):\n")
-        floor_lat = lat[floor.name][at["floor"]] * 1000
+            out.append(f"Sent while the output buffer was {b * 1e3:.1f} ms ({int(at['floor'].sum())} floor clicks):\n")
+        floor_lat = lat[paths["floor"].name][at["floor"]] * 1000
         heard = floor_lat[~np.isnan(floor_lat)]
         ref = (np.median(heard), np.percentile(heard, 99)) if heard.size else None
-        typer.echo("| path (ms) | median | p99 | min | max | not heard | median - floor | p99 - floor |\n"
+        out.append("| path (ms) | median | p99 | min | max | not heard | median - floor | p99 - floor |\n"
                    "|---|---:|---:|---:|---:|---:|---:|---:|")
         for key, p in paths.items():
             label = p.name if key == "floor" or key.startswith("osc-") else f"Engine.impact, {p.name}"
-            typer.echo(_row(label, lat[p.name][at[key]], None if key == "floor" else ref))
-        typer.echo("")
+            out.append(_row(label, lat[p.name][at[key]], None if key == "floor" else ref))
+        out.append("")
+    return out
 
 
 def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
     """The underflows during the sends, set against the machine's own stalls over the same time."""
     machine = rounds.machine
     stalls = np.array([s.seconds for s in machine.stalls]) * 1e3
+    long = [s for s in machine.stalls if s.seconds >= STALL_S]
     longest = max(machine.stalls, key=lambda s: s.seconds, default=None)
     causes = rounds.put_down_to_machine(within_s=STALL_WINDOW_S, at_least_s=STALL_S)
     typer.echo(
         f"{len(rounds.underflow_times)} stream underflows during the {sends} sends ({rounds.settling} before them, "
         f"while the streams settled); the recording's own overflows: {rounds.capture_overflows}. Machine stalls "
         f"over the same {machine.seconds:.0f} s (a probe per CPU, scheduler {machine.policy!r}): "
-        f"{int((stalls >= STALL_S * 1e3).sum())} of {STALL_S * 1e3:g} ms or more, "
+        f"{len(long)} of {STALL_S * 1e3:g} ms or more ({sum(map(machine.everywhere, long))} of them on every CPU "
+        f"at once), "
         f"{int((stalls >= buffer_s * 1e3).sum())} longer than the buffer"
         + (f", the longest {longest.seconds * 1e3:.1f} ms on CPU {longest.cpu}" if longest else "")
         + "".join(f"; the host's steal time, CPU {cpu}: {s * 1e3:.0f} ms" for cpu, s in machine.steal_s.items())

@@ -84,3 +84,27 @@ def test_bench_output_times_every_path_against_its_floor(soundserver):
     assert "Machine stalls over the same" in done.stdout  # the underflows' floor, measured in the same run
     assert "the recording's own overflows: " in done.stdout
     assert "Audio callbacks that came longer than the buffer after the one before" in done.stdout
+
+
+def test_bench_output_sets_each_send_against_the_floor_at_the_same_buffer():
+    """A buffer lengthened mid-run (8.7 -> 30 ms): one table per buffer, each with its own floor."""
+    import numpy as np
+
+    from hapticfx_soundcard.bench import TimedPath
+    from hapticfx_soundcard.commands import _latency_tables
+
+    buffers = [0.0087] * 6 + [0.03] * 4
+    floor = TimedPath("floor: a ready click into the same stream", None, 1, buffers_s=buffers)
+    brick = TimedPath("falling_brick", None, 0, buffers_s=buffers)
+    lat = {floor.name: np.array([10.0] * 6 + [34.0] * 4) / 1e3, brick.name: np.array([11.0] * 6 + [35.5] * 4) / 1e3}
+    lines = _latency_tables({"floor": floor, "brick": brick}, lat)
+    titles = [x for x in lines if x.startswith("Sent while")]
+    assert titles == ["Sent while the output buffer was 8.7 ms (6 floor clicks):\n",
+                      "Sent while the output buffer was 30.0 ms (4 floor clicks):\n"]
+    rows = [x for x in lines if x.startswith("| Engine.impact, falling_brick |")]
+    assert [r.split(" | ")[-2:] for r in rows] == [["+1.00", "+1.00 |"], ["+1.50", "+1.50 |"]]
+    fixed = {"floor": TimedPath(floor.name, None, 1, buffers_s=[0.0087] * 10),
+             "brick": TimedPath(brick.name, None, 0, buffers_s=[0.0087] * 10)}
+    one = _latency_tables(fixed, lat)
+    assert not [x for x in one if x.startswith("Sent while")]  # one buffer: one table, no title
+    assert len([x for x in one if x.startswith("| Engine.impact, falling_brick |")]) == 1
