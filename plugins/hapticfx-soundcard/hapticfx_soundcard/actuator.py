@@ -134,7 +134,7 @@ class SoundCardActuator(Actuator):
 
     @property
     def output_latency_s(self) -> float:
-        """The device stream's output latency (its buffer), as PortAudio reports it."""
+        """The device stream's output latency (its buffer), as PortAudio reported it when the stream opened."""
         return self._require_stream().output_latency_s
 
     @property

@@ -15,9 +15,8 @@ A stream that underflows after its start is reopened with a longer buffer, up to
 between two audio callbacks that was seen (the machine not running its feeder). The
 switch waits until the mixer has been silent for longer than the old buffer (at most
 ``GROW_WAIT_S``), so that it cuts off nothing: what the old stream still held is
-dropped with it. Sound
-servers do the same with their own buffers (PulseAudio raises its wake-up watermark
-after an underrun).
+dropped with it. Sound servers do the same with their own buffers (PulseAudio raises
+its wake-up watermark after an underrun).
 """
 
 from __future__ import annotations
@@ -74,7 +73,8 @@ def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: Safet
             watchdog_s: float) -> "DeviceStream":
     """The running stream of ``device`` with ``channel`` reserved (opened on first use).
 
-    The first actuator on a device sets the stream's latency, its longest, block size and voice count.
+    The first actuator on a device sets the stream's latency (and the longest it may grow to), block size
+    and voice count.
     """
     with _streams_lock:
         stream = _streams.get(device.index)
@@ -141,7 +141,7 @@ def _abort(stream, *, wait_s: float) -> bool:
 class DeviceStream:
     """A running output stream on one device, mixing impacts on its channels, reopened after an outage."""
 
-    def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, max_latency: float = 0.0,
+    def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, max_latency: float,
                  blocksize: int, max_voices: int, watchdog_s: float):
         self.device = device
         self.rate_hz = float(rate_hz)
@@ -159,7 +159,7 @@ class DeviceStream:
         # (time.monotonic(), gap) of the latest callbacks that came longer than the buffer after the one before:
         # the stream went unfed for longer than its buffer holds, whether or not PortAudio reports an underflow.
         self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
-        self._buffer_s = float("inf")
+        self._buffer_s = float("nan")  # as PortAudio reported it when the stream last opened
         self._longest_gap_s = 0.0  # since the last underflow warning: how long a buffer would have held
         self._underflows_told = 0
         self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
@@ -377,5 +377,6 @@ class DeviceStream:
 
     @property
     def output_latency_s(self) -> float:
-        """The running stream's output latency in seconds (NaN while none runs)."""
-        return float(self._stream.latency) if self._stream is not None else float("nan")
+        """The stream's output latency in seconds, as PortAudio reported it when the stream last
+        opened: the old one while a longer buffer is being switched in (NaN before the first)."""
+        return self._buffer_s
