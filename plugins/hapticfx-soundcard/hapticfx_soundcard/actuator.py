@@ -30,7 +30,8 @@ class SoundCardParams:
 
     rate_hz: int = field(default=48000, metadata=doc("requested sample rate; the device default if refused", min=8000, max=768000))
     latency: Literal["low", "high"] | float = field(
-        default="low", metadata=doc("output latency: PortAudio's 'low' or 'high' class, or seconds", min=0.001, max=1.0))
+        default="low", metadata=doc("output latency to start with: PortAudio's 'low' or 'high' class, or seconds",
+                                     min=0.001, max=1.0))
     max_latency: float = field(default=0.03, metadata=doc(
         "after underflows the buffer is lengthened, up to this many seconds, to hold the machine's longest "
         "wait; 0 keeps the buffer latency sets", min=0.0, max=1.0))
