@@ -153,8 +153,8 @@ def send_rounds(paths: list[TimedPath], rate_hz: float, n: int, *, gap_s: float,
     Every round sends once on each path (in a rotating order), ``gap_s`` apart, at a
     velocity drawn from ``velocities``; each path notes the capture-clock time of each
     send and the output's buffer then. ``output`` (a sound-card actuator) gives its stream's
-    buffer, underflow times and late callbacks. Nothing is analysed here: the outputs are still open, and an analysis
-    running beside them would delay their audio callbacks.
+    buffer, underflow times and late callbacks. Nothing is analysed here: the outputs are
+    still open, and an analysis running beside them would delay their audio callbacks.
     """
     rng = np.random.default_rng(seed)
     with LoopbackRecorder(rate_hz) as rec, StallProbe() as machine:

@@ -103,20 +103,24 @@ def _latency_section(effects: list[Path], impacts: int, latency, max_latency: fl
                             output=floor_act, progress=lambda i: bar.update())
             stats = engine.close()
     lat = bench.first_sample_latencies(list(paths.values()), rounds.capture, gap_s=gap_s)
-    buffers = list(dict.fromkeys(b for p in paths.values() for b in p.buffers_s))  # in the order they ran
     typer.echo(f"\n### stream latency {latency}: {impacts} impacts per path, {gap_s:g} s apart, paths interleaved; "
                f"output buffer {buffer_s * 1e3:.1f} ms (max_latency {cap:g} s"
-               + "".join(f"; then {b * 1e3:.1f} ms" for b in buffers if b != buffer_s)
+               + "".join(f"; then {b * 1e3:.1f} ms" for b in _buffers(paths) if b != buffer_s)
                + f"); engine: {stats['rendered']} played, {stats['failed']} failed, "
                f"{stats['dropped_queue_full']} dropped\n")
     _underflow_report(rounds, impacts * len(paths), buffer_s)
     typer.echo("\n".join(_latency_tables(paths, lat)))
 
 
+def _buffers(paths: dict) -> list[float]:
+    """The output buffers the sends went out at, in the order the run used them."""
+    return list(dict.fromkeys(b for p in paths.values() for b in p.buffers_s))
+
+
 def _latency_tables(paths: dict, lat: dict[str, np.ndarray]) -> list[str]:
     """One table per output buffer the run used (in order), each path against the floor clicks
     (``paths["floor"]``) sent at that buffer."""
-    buffers = list(dict.fromkeys(b for p in paths.values() for b in p.buffers_s))
+    buffers = _buffers(paths)
     out = []
     for b in buffers:
         at = {key: np.array(p.buffers_s) == b for key, p in paths.items()}
