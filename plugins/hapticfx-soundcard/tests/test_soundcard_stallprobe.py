@@ -2,8 +2,10 @@
 
 import os
 import signal
+import sys
 import time
 
+from hapticfx_soundcard import stallprobe
 from hapticfx_soundcard.bench import Capture, Rounds
 from hapticfx_soundcard.stallprobe import Stall, StallProbe
 
@@ -58,3 +60,30 @@ def test_a_stall_is_everywhere_when_every_other_cpu_stalled_during_it():
     assert [probe.everywhere(s) for s in probe.stalls] == [True, True, False, False, False]
     probe._cpus = [0, 1, 2]  # a third CPU that never stalled
     assert not probe.everywhere(probe.stalls[0])
+
+
+def test_a_probe_leaves_real_time_priority_before_it_reports(monkeypatch):
+    """Reporting and exiting at the highest real-time priority kept the audio being timed off the CPUs
+    (an underflow at 5 of 6 exits). The scheduler calls are recorded, not made: this test process must
+    not pin itself to one CPU or take real-time priority."""
+    events = []
+
+    class Out:
+        def write(self, text):
+            events.append(("out", text))
+
+        def flush(self):
+            pass
+
+    monkeypatch.setattr(os, "sched_setaffinity", lambda pid, cpus: None)
+    monkeypatch.setattr(os, "sched_setscheduler", lambda pid, policy, param: events.append(("policy", policy)))
+    read, write = os.pipe()
+    os.close(write)  # stdin at its end: the probe stops at once, as when the bench closes it
+    with os.fdopen(read) as stdin:
+        monkeypatch.setattr(sys, "stdin", stdin)
+        monkeypatch.setattr(sys, "stdout", Out())
+        stallprobe._run(0, 0.001, 0.002)
+    policies = [e[1] for e in events if e[0] == "policy"]
+    assert policies == [os.SCHED_FIFO, os.SCHED_OTHER]
+    report = next(i for i, e in enumerate(events) if e[0] == "out" and e[1].startswith("{"))
+    assert events.index(("policy", os.SCHED_OTHER)) < report
