@@ -45,10 +45,15 @@ def test_missing_port_is_one_line_and_exit_2():
 
 
 def test_bench_isolation_a_silent_board_loses_nothing_on_the_other_output():
-    from hapticfx_solenoid.isolation import run_once
+    from hapticfx_solenoid.isolation import run_once, table
 
-    healthy, silent = run_once(False, 12, 0.02), run_once(True, 12, 0.02)
-    assert healthy["helmet"]["rendered"] == silent["helmet"]["rendered"] == 12
+    alone, healthy, silent = (run_once(board, 12, 0.02) for board in ("none", "healthy", "silent"))
+    assert alone["helmet"]["rendered"] == healthy["helmet"]["rendered"] == silent["helmet"]["rendered"] == 12
+    assert alone["coil"] is None and alone["wav"].size == 12
+    rows = table({"none": [alone], "healthy": [healthy], "silent": [silent]}).splitlines()[2:]
+    assert [r.split(" | ")[0] for r in rows] == ["| none (the WAV output alone)", "| healthy",
+                                                 "| silent after the handshake"]
+    assert rows[0].endswith("| 12 | - |") and rows[1].endswith("| 12 | 3 / 0 / 0 |")
     assert healthy["coil"]["rendered"] == 3 and healthy["coil"]["failed"] == 0
     # the silent board's impacts fail (the first) or are cancelled at close (the rest): none is waited on
     assert silent["coil"]["rendered"] == 0 and silent["coil"]["failed"] >= 1
