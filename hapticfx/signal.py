@@ -66,7 +66,7 @@ class Signal:
     rate_hz: float
 
     def __post_init__(self):
-        self._hold(self.samples, copy=True)
+        self._hold(self.samples, self.rate_hz, copy=True)
 
     @classmethod
     def adopt(cls, samples: np.ndarray, rate_hz: float) -> "Signal":
@@ -76,13 +76,12 @@ class Signal:
         is not copied once more on its way out.
         """
         signal = object.__new__(cls)
-        object.__setattr__(signal, "rate_hz", rate_hz)
-        signal._hold(samples, copy=False)
+        signal._hold(samples, rate_hz, copy=False)
         return signal
 
-    def _hold(self, samples, *, copy: bool) -> None:
+    def _hold(self, samples, rate_hz, *, copy: bool) -> None:
         arr = valid_signal(samples, name="Signal.samples", ndim=(1, 2))
-        rate = valid_number(self.rate_hz, name="Signal.rate_hz")
+        rate = valid_number(rate_hz, name="Signal.rate_hz")
         if rate <= 0:
             raise SignalError(f"Signal.rate_hz must be > 0, got {rate}")
         if copy:
