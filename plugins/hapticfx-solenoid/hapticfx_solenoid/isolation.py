@@ -48,8 +48,8 @@ def run_once(board: str, impacts: int, interval_s: float) -> dict:
     with tempfile.TemporaryDirectory() as tmp, \
             (nullcontext() if board == "none" else emulator_process(*extra)) as port:
         scene = Path(tmp) / "scene.yaml"
-        board_part = ("", "") if port is None else (COIL, PLATE)
-        text = f"name: isolation\nactuators:\n{HELMET}{board_part[0]}effects:\n{BRICK}{board_part[1]}"
+        coil, plate = ("", "") if port is None else (COIL, PLATE)
+        text = f"name: isolation\nactuators:\n{HELMET}{coil}effects:\n{BRICK}{plate}"
         scene.write_text(text.format(wav=Path(tmp) / "out.wav", port=port))
         engine = Engine(scene)
         rng = np.random.default_rng(1)
