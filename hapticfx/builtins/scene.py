@@ -42,18 +42,14 @@ def bench_scene_file(directory: Path, model: dict, *, port: int = 0) -> Path:
 def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device: str | None,
                 stats_every: float, duration: float | None, echo) -> dict:
     """Run the OSC bridge on a scene until SIGINT/SIGTERM (or ``duration``); returns the final counters."""
-    import signal
-    import threading
-
     from ..engine import Engine
     from ..osc import OscBridge
     from ..scene import OscSettings, load_scene
+    from ..stopsignals import StopSignals
 
     scene = load_scene(scene_path)
     osc = scene.osc or OscSettings()
-    stop = threading.Event()
-    previous = {s: signal.signal(s, lambda *_: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
+    with StopSignals() as stop:
         with Engine(scene, device=device) as engine:
             bridge = OscBridge(engine.submit, engine.objects, host=host or osc.host,
                                port=osc.port if port is None else port, max_datagram=osc.max_datagram,
@@ -62,7 +58,7 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
                 h, p = bridge.address
                 echo(f"listening on {h}:{p} (OSC /hapticfx/impact; scene {scene.name!r}: {', '.join(engine.objects)})")
                 started = time.monotonic()
-                while not stop.is_set():
+                while stop.received is None:
                     left = None if duration is None else duration - (time.monotonic() - started)
                     if left is not None and left <= 0:
                         break
@@ -73,9 +69,6 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
                         echo(json.dumps({"bridge": bridge.stats(), "engine": engine.stats()}))
                 bridge_stats = bridge.stats()
             engine_stats = engine.close()
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
     return {"bridge": bridge_stats, "engine": engine_stats}
 
 

@@ -17,7 +17,6 @@ import argparse
 import os
 import pty
 import select
-import signal
 import sys
 import termios
 import threading
@@ -25,6 +24,8 @@ import time
 import tty
 from dataclasses import dataclass
 from typing import Callable, Literal
+
+from hapticfx.stopsignals import StopSignals
 
 from .protocol import MAX_LINE, PROTOCOL_VERSION, DutyWindow, FirmwareLimits
 
@@ -248,18 +249,17 @@ def main(argv: list[str] | None = None) -> int:
         os.symlink(emulator.port, tmp)
         os.replace(tmp, args.link)
         path = args.link
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    emulator.start()
-    print(path, flush=True)
-    print(f"solenoid emulator on {emulator.port} (protocol {PROTOCOL_VERSION}); Ctrl-C to stop", file=sys.stderr, flush=True)
-    try:
-        stop.wait()
-    finally:
-        emulator.stop()
-        if args.link and os.path.islink(args.link):
-            os.unlink(args.link)
+    with StopSignals() as stop:
+        emulator.start()
+        print(path, flush=True)
+        print(f"solenoid emulator on {emulator.port} (protocol {PROTOCOL_VERSION}); Ctrl-C to stop", file=sys.stderr,
+              flush=True)
+        try:
+            stop.wait()
+        finally:
+            emulator.stop()
+            if args.link and os.path.islink(args.link):
+                os.unlink(args.link)
     return 0
 
 
