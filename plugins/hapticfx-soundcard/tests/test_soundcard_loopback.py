@@ -3,6 +3,7 @@
 import re
 import sys
 import time
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -244,6 +245,26 @@ def test_opening_a_stream_takes_the_heap_out_of_full_collections(soundserver, se
     assert before == 0 and (after > 1000) == frozen and (after == 0) == (not frozen)
 
 
+@contextmanager
+def settled_transducer(params, caplog=None):
+    """A vibro-transducer on the default device, 0.5 s past its stream's start, that has not underflowed
+    since then: a test that stops this process must see its own underflow first. Where the machine's own
+    stall came first (docs/benchmarks.md), the actuator is opened again (and ``caplog`` cleared), up to
+    ATTEMPTS times."""
+    from hapticfx_soundcard.stream import START_S
+
+    for _ in range(ATTEMPTS):
+        opened = time.monotonic()
+        with VibroTransducer(params, BuildContext(device="default")) as act:
+            time.sleep(0.5)
+            if not act.buffer_changes and not any(t > opened + START_S for t in act.underflow_times):
+                yield act
+                return
+        if caplog is not None:
+            caplog.clear()
+    pytest.fail(f"the machine starved the stream before the test's own stop in each of {ATTEMPTS} attempts")
+
+
 def stop_this_process_until_an_underflow(act, seconds=0.15):
     """Stop this whole process (SIGSTOP, from a child) for ``seconds``, longer than the 8.7 ms 'low'
     buffer: what a host taking the CPU away does. Returns when the stop began."""
@@ -266,9 +287,8 @@ def stop_this_process_until_an_underflow(act, seconds=0.15):
 def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_underflow(soundserver, caplog):
     """What ``bench output`` reports of a stop; the user is told once, with the remedy; an underflow
     as the stream starts is not a gap and is not told. ``max_latency: 0`` keeps the buffer."""
-    with VibroTransducer(VibroTransducer.Params(max_latency=0.0), BuildContext(device="default")) as act:
+    with settled_transducer(VibroTransducer.Params(max_latency=0.0), caplog) as act:
         assert 0.001 < act.output_latency_s < 0.06
-        time.sleep(0.5)  # past the stream's start
         before, times_before, buffer = act.underflows, act.underflow_times, act.output_latency_s
         t0 = stop_this_process_until_an_underflow(act)
         new = act.underflow_times[len(times_before):]
@@ -293,8 +313,7 @@ def test_after_an_underflow_the_buffer_is_lengthened_up_to_max_latency_and_still
                                                                                         max_latency):
     """The 150 ms stop asks for more than either cap: the stream is reopened at the cap (at least twice
     the 8.7 ms it had), is told of once, and what is played after comes back unchanged."""
-    with VibroTransducer(VibroTransducer.Params(max_latency=max_latency), BuildContext(device="default")) as act:
-        time.sleep(0.5)
+    with settled_transducer(VibroTransducer.Params(max_latency=max_latency), caplog) as act:
         was = act.output_latency_s
         t0 = stop_this_process_until_an_underflow(act)
         time.sleep(0.3)
@@ -315,8 +334,7 @@ def test_after_an_underflow_the_buffer_is_lengthened_up_to_max_latency_and_still
 
 def test_a_longer_buffer_waits_until_nothing_sounds(soundserver):
     """Reopening drops what the old stream held: an impact sounding at the stop is not cut by the switch."""
-    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
-        time.sleep(0.5)
+    with settled_transducer(VibroTransducer.Params()) as act:
         act.play(Signal(np.full(int(0.8 * RATE), 0.1), RATE))
         played = time.monotonic()
         time.sleep(0.1)
