@@ -190,9 +190,9 @@ class DeviceStream:
             )
         self.mixer.widen(channel + 1)
         self.mixer.set_limits(channel, limits)
-        self.users.add(channel)
         if self._stream is None or self._stream.channels < self.mixer.channels:
             self._open()
+        self.users.add(channel)  # only once it plays: a refused channel is not held
         if self._watchdog is None:
             self._watchdog = threading.Thread(target=self._watch, name="hapticfx-soundcard-watchdog", daemon=True)
             self._watchdog.start()
