@@ -108,6 +108,18 @@ class SafetyLimiter:
             self._tail = np.concatenate([self._tail, flat])[-keep:] if keep else np.zeros(0)
         return x
 
+    def state(self) -> tuple:
+        """Everything ``process`` changes, to :meth:`restore` later and limit the same stretch again
+        (audio written ahead of playback and then mixed into: the output goes on exactly from there)."""
+        with self._lock:  # _tail is replaced, never changed in place
+            return self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction
+
+    def restore(self, state: tuple) -> None:
+        """Go back to a :meth:`state` taken before."""
+        with self._lock:
+            self._tail, history, self._clock_s, counts, self._max_reduction = state
+            self._on_history, self._counts = deque(history), dict(counts)
+
     def _over_budget(self, joined: np.ndarray, slack: float = 1.0) -> bool:
         """Whether any window of any RMS constraint holds more energy than it may."""
         # Not a BLAS dot product: OpenBLAS hands a long one to its helper thread, which a busy core can stall
