@@ -52,16 +52,19 @@ _streams: dict[int, "DeviceStream"] = {}
 _streams_lock = threading.Lock()
 
 
-def _freeze_heap() -> None:
-    """Keep the garbage collector's full passes short while streams run (once per process).
+def keep_the_gil_moving() -> None:
+    """Keep the GIL from being held long while streams run (process-wide, idempotent).
 
-    The audio callback is Python: it needs the GIL within a block's period, and a
-    full collection holds the GIL while it walks every tracked object (11-19 ms in
-    ``hapticfx bench output``, longer than the 8.7 ms 'low' buffer: an underflow).
-    The objects alive when the first stream opens (modules, classes, loaded effects)
-    are moved out of the collector's reach (``gc.freeze``); later passes walk only
+    The audio callback is Python: it needs the GIL within a block's period (and an impact
+    written over a queue needs it to be written on time). By default a thread doing Python
+    work keeps the GIL 5 ms before it must hand it over; 1 ms keeps blocks on time. And a
+    full garbage collection holds the GIL while it walks every tracked object (11-19 ms in
+    ``hapticfx bench output``, longer than the 8.7 ms 'low' buffer: an underflow). So, once
+    per process, the objects alive when the first stream opens (modules, classes, loaded
+    effects) are moved out of the collector's reach (``gc.freeze``); later passes walk only
     what was made since. ``HAPTICFX_GC_FREEZE=0`` leaves the collector alone.
     """
+    sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
     if gc.get_freeze_count() or os.environ.get(GC_FREEZE_ENV) == "0":
         return
     gc.collect()  # what is garbage now is freed, not frozen
@@ -79,7 +82,7 @@ def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: Safet
     with _streams_lock:
         stream = _streams.get(device.index)
         if stream is None:
-            _freeze_heap()
+            keep_the_gil_moving()
             stream = DeviceStream(device, rate_hz, latency=latency, max_latency=max_latency, blocksize=blocksize,
                                   max_voices=max_voices, watchdog_s=watchdog_s)
             _streams[device.index] = stream
@@ -200,9 +203,6 @@ class DeviceStream:
     def _open(self) -> None:
         """(Re)open the stream; DeviceError if the device refuses."""
         sd = import_sounddevice()
-        # The audio callback is Python: it needs the GIL within a block's period. By default a thread
-        # doing Python work keeps the GIL 5 ms before it must hand it over; 1 ms keeps blocks on time.
-        sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
         if not self._filtering:
             FILTER.acquire()
             self._filtering = True
