@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
 
-apt_packages=(libportaudio2)   # sounddevice needs PortAudio
+apt_packages=(libportaudio2 libpulse0)   # sounddevice needs PortAudio; the sound-card `queue` option libpulse
 if [ "${1:-}" = "--test" ]; then
   # PulseAudio null sink for the sound-card tests, socat for serial pairs, liblo-tools for oscsend.
   # gcc-avr, avr-libc, arduino-core-avr: the solenoid sketch is compiled for the Uno in a test.

@@ -14,12 +14,13 @@ import sys
 from dataclasses import dataclass, field
 from typing import ClassVar, Literal
 
-from hapticfx.errors import DeviceError
+from hapticfx.errors import DeviceError, EffectError
 from hapticfx.interfaces import Actuator, ActuatorSpec, SafetyLimits
 from hapticfx.params import BuildContext, doc
 from hapticfx.shaping import resample
 from hapticfx.signal import Signal
 
+from . import queuestream
 from . import stream as streams
 from .devices import negotiate_rate, resolve_device
 
@@ -40,6 +41,12 @@ class SoundCardParams:
         "impacts sounding at once; one more is not mixed in (1000 fit a 48-frame block: docs/benchmarks.md)",
         min=1, max=4096))
     watchdog_s: float = field(default=0.5, metadata=doc("a stream silent this long is an outage, then reopened", min=0.05, max=5.0))
+    queue: float = field(default=0.0, metadata=doc(
+        "seconds of audio kept queued at a PulseAudio (or PipeWire-Pulse) server, so that pauses of the machine "
+        "shorter than it leave no gap; each impact is written over the queue `ahead` before playback "
+        "(docs/soundcard.md); device then names a sink; 0: a PortAudio stream of `latency`", min=0.0, max=2.0))
+    ahead: float = field(default=0.01, metadata=doc(
+        "with queue: how far ahead of playback a new impact is written, i.e. its latency", min=0.002, max=0.5))
 
 
 class SoundCardActuator(Actuator):
@@ -71,24 +78,40 @@ class SoundCardActuator(Actuator):
             waveform=True, limits=self.hard_limits, default_gain=self.default_gain,
         )
         self.limits = self.spec.limits
+        queue = self.params.queue
+        if queue and not self.params.ahead < queue:
+            raise EffectError(f"ahead ({self.params.ahead:g} s) must be shorter than queue ({queue:g} s)",
+                              source=context.source, key="actuator.ahead")
         self.note: str | None = None
-        self._stream: streams.DeviceStream | None = None
+        self._stream: streams.DeviceStream | queuestream.QueueStream | None = None
 
     def open(self) -> None:
         if self._stream is not None:
+            return
+        p = self.params
+        if p.queue:
+            sink = None if self.device_request in (None, "default") else str(self.device_request)
+            self._stream = queuestream.acquire(
+                sink, channel=self.channel, rate_hz=self.spec.rate_hz, limits=self.limits, queue_s=p.queue,
+                ahead_s=p.ahead, max_voices=p.max_impacts, watchdog_s=p.watchdog_s)
             return
         device = resolve_device(self.device_request)
         rate, self.note = negotiate_rate(device, self.spec.rate_hz, channels=min(2, device.channels))
         if self.note:
             print(f"{self.name}: {self.note}", file=sys.stderr)
         self.spec = dataclasses.replace(self.spec, rate_hz=rate)
-        p = self.params
         self._stream = streams.acquire(
             device, channel=self.channel, rate_hz=rate, limits=self.limits, latency=p.latency,
             max_latency=p.max_latency, blocksize=p.blocksize, max_voices=p.max_impacts, watchdog_s=p.watchdog_s,
         )
 
-    def _require_stream(self) -> streams.DeviceStream:
+    @property
+    def queue_s(self) -> float:
+        """Seconds queued at the PulseAudio server, impacts written over them; 0: a PortAudio stream."""
+        stream = self._require_stream()
+        return stream.queue_s if isinstance(stream, queuestream.QueueStream) else 0.0
+
+    def _require_stream(self) -> streams.DeviceStream | queuestream.QueueStream:
         if self._stream is None:
             raise DeviceError(f"{self.name} is not open; use it as a context manager or call open()")
         return self._stream
@@ -116,16 +139,20 @@ class SoundCardActuator(Actuator):
 
     def close(self) -> None:
         stream, self._stream = self._stream, None
-        if stream is not None:
+        if isinstance(stream, queuestream.QueueStream):
+            queuestream.release(stream, self.channel, drain_timeout_s=10.0)
+        elif stream is not None:
             streams.release(stream, self.channel, drain_timeout_s=10.0)
 
     def losses(self) -> dict[str, int]:
         """Impacts taken but not played in full: not mixed in because ``max_impacts`` were sounding
-        (``voice_cap``), longer than the mixer's ring (``truncated``), cut off by an outage (``outage``)."""
+        (``voice_cap``), longer than the mixer's ring (``truncated``), cut off by an outage (``outage``),
+        written over the queue after the server had read their first frame (``late``: with ``queue`` only)."""
         stream = self._stream
         if stream is None:
             return {}
-        counts = {"voice_cap": stream.mixer.refused, "truncated": stream.mixer.truncated, "outage": stream.lost}
+        counts = {"voice_cap": stream.mixer.refused, "truncated": stream.mixer.truncated, "outage": stream.lost,
+                  "late": stream.late if isinstance(stream, queuestream.QueueStream) else 0}
         return {k: v for k, v in counts.items() if v}
 
     @property
@@ -162,7 +189,10 @@ class SoundCardActuator(Actuator):
 
     def describe(self) -> str:
         where = "default device" if self.device_request in (None, "default") else f"device {self.device_request!r}"
-        return f"{self.name} on {where}, channel {self.channel}, {self.spec.rate_hz:g} Hz"
+        stream = self._stream
+        how = (f", a {stream.queue_s * 1e3:g} ms queue at the PulseAudio server"
+               if isinstance(stream, queuestream.QueueStream) else "")
+        return f"{self.name} on {where}, channel {self.channel}, {self.spec.rate_hz:g} Hz{how}"
 
 
 class VibroTransducer(SoundCardActuator):

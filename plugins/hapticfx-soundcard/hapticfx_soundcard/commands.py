@@ -49,7 +49,7 @@ BLOCKS = (48, 104, 256)  # 48: PortAudio's block at a 4 ms buffer here; 104: at 
 
 
 def _latency_section(effects: list[Path], impacts: int, latency, max_latency: float | None, device: str,
-                     gap_s: float) -> None:
+                     gap_s: float, queue: float | None, ahead: float | None) -> None:
     import socket
     import tempfile
 
@@ -63,7 +63,8 @@ def _latency_section(effects: list[Path], impacts: int, latency, max_latency: fl
     with tempfile.TemporaryDirectory() as tmp:
         scene = Path(tmp) / "bench-output.yaml"
         names = [p.stem for p in effects]
-        options = {"latency": latency} if max_latency is None else {"latency": latency, "max_latency": max_latency}
+        given = {"latency": latency, "max_latency": max_latency, "queue": queue, "ahead": ahead}
+        options = {k: v for k, v in given.items() if v is not None}
         lines = [f"name: bench-output\nactuators:\n  helmet: {{type: vibro-transducer, device: {device!r}, "
                  + ", ".join(f"{k}: {v!r}" for k, v in options.items()) + "}\neffects:"]
         osc_object = names[-2] if len(names) > 1 else names[0]
@@ -97,18 +98,24 @@ def _latency_section(effects: list[Path], impacts: int, latency, max_latency: fl
                         encode_impact(f"osc-{osc_object}", v), addr), 0)
                     buffer_s = floor_act.output_latency_s
                     cap = floor_act.params.max_latency
-                    with Progress(impacts, f"latency {latency}", unit="rounds") as bar:
+                    queued = floor_act.queue_s
+                    what = f"queue {queued:g} s" if queued else f"latency {latency}"
+                    with Progress(impacts, what, unit="rounds") as bar:
                         rounds = bench.send_rounds(
                             list(paths.values()), rate, impacts, gap_s=gap_s,
                             output=floor_act, progress=lambda i: bar.update())
+                    late = floor_act.losses().get("late", 0)
             stats = engine.close()
     lat = bench.first_sample_latencies(list(paths.values()), rounds.capture, gap_s=gap_s)
-    typer.echo(f"\n### stream latency {latency}: {impacts} impacts per path, {gap_s:g} s apart, paths interleaved; "
-               f"output buffer {buffer_s * 1e3:.1f} ms (max_latency {cap:g} s"
-               + "".join(f"; then {b * 1e3:.1f} ms" for b in _buffers(paths) if b != buffer_s)
-               + f"); engine: {stats['rendered']} played, {stats['failed']} failed, "
-               f"{stats['dropped_queue_full']} dropped\n")
-    _underflow_report(rounds, impacts * len(paths), buffer_s)
+    if queued:
+        stream = (f"### queue {queued * 1e3:g} ms at the server, impacts written {buffer_s * 1e3:g} ms ahead of playback "
+                  f"({late} written after the server had read their start): ")
+    else:
+        stream = (f"### stream latency {latency}: output buffer {buffer_s * 1e3:.1f} ms (max_latency {cap:g} s"
+                  + "".join(f"; then {b * 1e3:.1f} ms" for b in _buffers(paths) if b != buffer_s) + "); ")
+    typer.echo(f"\n{stream}{impacts} impacts per path, {gap_s:g} s apart, paths interleaved; "
+               f"engine: {stats['rendered']} played, {stats['failed']} failed, {stats['dropped_queue_full']} dropped\n")
+    _underflow_report(rounds, impacts * len(paths), queued or buffer_s)
     typer.echo("\n".join(_latency_tables(paths, lat)))
 
 
@@ -181,6 +188,13 @@ def bench_output(
     max_latency: Optional[float] = typer.Option(None, "--max-latency", min=0.0, max=1.0,
                                                 help="Longest buffer the stream may grow to after underflows "
                                                      "(0: never; default: the actuator's shipped max_latency)."),
+    queue: Optional[float] = typer.Option(None, "--queue", min=0.0, max=2.0,
+                                          help="The actuator's queue option: seconds queued at the PulseAudio server, "
+                                               "impacts written over them; 0: the PortAudio stream of --latency "
+                                               "(default: the actuator's)."),
+    ahead: Optional[float] = typer.Option(None, "--ahead", min=0.002, max=0.5,
+                                          help="With --queue: how far ahead of playback impacts are written "
+                                               "(default: the actuator's shipped ahead)."),
     gap: float = typer.Option(0.55, "--gap", min=0.05, help="Seconds between impacts (longer than one impact)."),
     device: str = typer.Option("default", "--device", "-d", help="Sound output to time (its monitor must be the default input)."),
     seconds: float = typer.Option(2.0, "--seconds", min=0.1, help="Audio seconds mixed per capacity point."),
@@ -198,7 +212,9 @@ def bench_output(
     against the machine's own stalls over the same time (a probe per CPU, at real-time
     priority where permitted) and against the stream's late callbacks (gaps longer than
     its buffer, on its own clock). Where underflows lengthen the stream's buffer (up to
-    max_latency), the latency table is given for each buffer. Needs a sound server whose
+    max_latency), the latency table is given for each buffer. With a queue at the PulseAudio
+    server (--queue) impacts are written over it, and --latency does not apply.
+    Needs a sound server whose
     default input records the output (the PulseAudio null sink of .ci/soundserver.sh).
     Capacity: the audio callback's wall time at the block sizes PortAudio uses here,
     against the block's period. Recovery: a private server (.ci/soundserver.sh) stalled
@@ -211,8 +227,8 @@ def bench_output(
         if not p.is_file():
             raise SignalError(f"{p}: no such effect file (run from the repository root, or name effect files)")
     typer.echo(f"## impact to first sample (ms), {len(paths)} models")
-    for latency in latencies:
-        _latency_section(paths, impacts, latency, max_latency, device, gap)
+    for latency in latencies if not queue else latencies[:1]:
+        _latency_section(paths, impacts, latency, max_latency, device, gap, queue, ahead)
 
     typer.echo(f"\n## mixer capacity (one core, 48 kHz, limiter on; {seconds:g} s of audio per point)\n")
     typer.echo("| block (frames) | period ms | impacts at once | callback median ms | p99 | max | p99 / period "

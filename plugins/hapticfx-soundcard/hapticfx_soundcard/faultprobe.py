@@ -1,4 +1,4 @@
-"""A program whose sound server fails under a playing actuator: ``python -m hapticfx_soundcard.faultprobe MODE PID``.
+"""A program whose sound server fails under a playing actuator: ``python -m hapticfx_soundcard.faultprobe MODE PID [QUEUE]``.
 
 Run by the fault tests and by ``hapticfx bench output``, each against a PulseAudio
 server of its own (PID). MODE is kill | unload | stall (the server stays broken),
@@ -8,6 +8,7 @@ again by .ci/soundserver.sh, whose path is in ``HAPTICFX_SOUNDSERVER``). Prints 
 from the server's return (continued, or answering ``pactl info`` again) to the
 first impact the actuator takes again; ``heard`` counts the clicks then recorded
 from the sink's monitor; ``buffer_changes`` how often the stream's buffer was lengthened.
+QUEUE (seconds, default 0) is the actuator's ``queue`` option: the PulseAudio queue instead of PortAudio.
 """
 
 import os
@@ -26,6 +27,7 @@ from hapticfx_soundcard.actuator import VibroTransducer
 from hapticfx_soundcard.bench import LoopbackRecorder, click, onsets
 
 mode, server_pid = sys.argv[1], int(sys.argv[2])
+queue = float(sys.argv[3]) if len(sys.argv) > 3 else 0.0
 rate = 48000
 tone = Signal(0.2 * np.sin(2 * np.pi * 100 * np.arange(2 * rate) / rate), rate)
 
@@ -34,7 +36,7 @@ def say(key, value):
     print(f"{key} {value}", flush=True)
 
 
-act = VibroTransducer(VibroTransducer.Params(), BuildContext(device="default"))
+act = VibroTransducer(VibroTransducer.Params(queue=queue), BuildContext(device="default"))
 other = get_registry().create("actuator", "memory")
 act.open()
 other.open()

@@ -21,13 +21,13 @@ pytestmark = pytest.mark.soundserver
 SCRIPT = Path(__file__).resolve().parents[3] / ".ci" / "soundserver.sh"
 
 
-def run_child(mode, tmp_path):
+def run_child(mode, tmp_path, queue=0.0):
     runtime = str(tmp_path / "xdg")
     start_soundserver(runtime)
     try:
         pid = (Path(runtime) / "pulse" / "pid").read_text().strip()
         env = {**os.environ, "XDG_RUNTIME_DIR": runtime, "HAPTICFX_XDG": runtime, "HAPTICFX_SOUNDSERVER": str(SCRIPT)}
-        done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid], env=env,
+        done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid, str(queue)], env=env,
                               capture_output=True, text=True, timeout=60)
     finally:
         stop_soundserver(runtime)
@@ -44,16 +44,23 @@ def quiet(stderr: str) -> bool:
     return True
 
 
-@pytest.mark.parametrize("mode, cause", [
-    ("kill", "stopped by itself"),
-    ("unload", "stopped by itself"),
-    ("stall", "no audio callback"),
+PORTAUDIO = "sound output 'default' unavailable:"
+QUEUE = "the PulseAudio default sink unavailable:"
+
+
+@pytest.mark.parametrize("mode, queue, output, cause", [
+    ("kill", 0.0, PORTAUDIO, "stopped by itself"),
+    ("unload", 0.0, PORTAUDIO, "stopped by itself"),
+    ("stall", 0.0, PORTAUDIO, "no audio callback"),
+    ("kill", 0.1, QUEUE, "closed the connection"),
+    ("unload", 0.1, QUEUE, "ended the stream"),
+    ("stall", 0.1, QUEUE, "no request for audio"),
 ])
-def test_a_failing_sound_server_gives_a_clear_error_quickly(mode, cause, tmp_path):
-    seen, stderr = run_child(mode, tmp_path)
+def test_a_failing_sound_server_gives_a_clear_error_quickly(mode, queue, output, cause, tmp_path):
+    seen, stderr = run_child(mode, tmp_path, queue)
     assert seen["detected_s"] != "never"
     assert float(seen["detected_s"]) < 1.0
-    assert seen["message"].startswith("sound output 'default' unavailable:") and cause in seen["message"]
+    assert seen["message"].startswith(output) and cause in seen["message"], seen["message"]
     assert float(seen["play_after_s"].split()[0]) < 0.05
     assert int(seen["lost"]) == 1  # the tone that was sounding
     assert seen["other_played"] == "1"
@@ -61,9 +68,10 @@ def test_a_failing_sound_server_gives_a_clear_error_quickly(mode, cause, tmp_pat
     assert quiet(stderr)
 
 
+@pytest.mark.parametrize("queue", [0.0, 0.1])
 @pytest.mark.parametrize("mode", ["stall-resume", "restart"])
-def test_impacts_are_heard_again_once_the_server_is_back(mode, tmp_path):
-    seen, stderr = run_child(mode, tmp_path)
+def test_impacts_are_heard_again_once_the_server_is_back(mode, queue, tmp_path):
+    seen, stderr = run_child(mode, tmp_path, queue)
     assert float(seen["detected_s"]) < 1.0
     assert seen["recovered_s"] != "never"
     assert seen["heard"] == "1"

@@ -1,0 +1,281 @@
+"""A deep queue at the PulseAudio server, with each new impact written over it just ahead of playback.
+
+Through PortAudio a stream's buffer is its latency: a new impact queues behind
+everything already buffered, so a buffer long enough to ride through a stall
+of the machine (40-66 ms here, docs/benchmarks.md) delays every impact as much.
+This stream keeps ``queue`` seconds queued at the server, so a stall shorter
+than that leaves the sound unbroken, and writes each new impact over the queued
+audio ``ahead`` seconds before the frame being heard (libpulse's absolute seek):
+its latency is ``ahead``, not ``queue``. The queue is refilled on libpulse's
+thread, which needs the GIL only once it is well behind.
+
+Every impact goes through the channel's safety limiter: the mixer limits the
+queued audio again from the impact's start, from the limiters' state there
+(:class:`~hapticfx_soundcard.mixer.QueueMixer`). An impact whose first frame the
+server had already read when the write arrived counts as ``late``.
+
+Outages are handled as :class:`~hapticfx_soundcard.stream.DeviceStream` does: a
+server that stops asking for audio for ``watchdog_s`` or drops the connection is
+an outage (what was sounding is counted as lost, ``play`` raises
+:class:`DeviceError`), a stalled server that resumes is taken back as it is, and
+a gone one is reconnected every ``RETRY_S``.
+"""
+
+from __future__ import annotations
+
+import atexit
+import logging
+import threading
+import time
+from collections import deque
+
+import numpy as np
+from hapticfx.errors import DeviceError
+from hapticfx.interfaces import SafetyLimits
+from hapticfx.ratelog import RateLimitedLog
+
+from .libpulse import Playback
+from .mixer import QueueMixer
+from .stream import RETRY_S, UNDERFLOW_LOG_S, keep_the_gil_moving
+
+log = logging.getLogger(__name__)
+
+REQUEST_S = 0.005  # the server asks for more audio whenever this much was played (minreq)
+CHANNELS = 2  # the stream's channels to start with (the paper's two voice-coil actuators); more reopen it
+
+_streams: dict[str, "QueueStream"] = {}
+_streams_lock = threading.Lock()
+
+
+def acquire(sink: str | None, *, channel: int, rate_hz: float, limits: SafetyLimits, queue_s: float,
+            ahead_s: float, max_voices: int, watchdog_s: float) -> "QueueStream":
+    """The queue stream on ``sink`` (None: the server's default) with ``channel`` reserved (opened on
+    first use; the first actuator on a sink sets its rate, queue, lead and voice count)."""
+    key = sink or ""
+    with _streams_lock:
+        stream = _streams.get(key)
+        if stream is None:
+            keep_the_gil_moving()
+            stream = QueueStream(sink, rate_hz, queue_s=queue_s, ahead_s=ahead_s, max_voices=max_voices,
+                                 watchdog_s=watchdog_s)
+            _streams[key] = stream
+        elif stream.rate_hz != rate_hz:
+            raise DeviceError(f"{stream.name} already streams at {stream.rate_hz:g} Hz for another actuator; "
+                              f"give both the same rate_hz")
+        try:
+            stream.reserve(channel, limits)
+        except DeviceError:
+            if not stream.users:
+                stream.shutdown()
+                _streams.pop(key, None)
+            raise
+        return stream
+
+
+def _shutdown_all() -> None:
+    with _streams_lock:
+        open_streams = list(_streams.values())
+        _streams.clear()
+    for stream in open_streams:
+        stream.shutdown()
+
+
+atexit.register(_shutdown_all)  # libpulse's thread calls into Python: it must go before the interpreter does
+
+
+def release(stream: "QueueStream", channel: int, *, drain_timeout_s: float) -> None:
+    """Give ``channel`` back; the last actuator on a sink closes its stream after draining it."""
+    with _streams_lock:
+        stream.users.discard(channel)
+        last = not stream.users
+        if last and _streams.get(stream.sink or "") is stream:
+            del _streams[stream.sink or ""]
+    if last:
+        try:
+            if stream.outage is None:
+                stream.drain(drain_timeout_s)
+        finally:
+            stream.shutdown()
+
+
+class QueueStream:
+    """A PulseAudio playback stream holding ``queue_s`` of audio, new impacts written ``ahead_s`` before
+    playback, shared by the actuators on its channels and reconnected after an outage."""
+
+    def __init__(self, sink: str | None, rate_hz: float, *, queue_s: float, ahead_s: float, max_voices: int,
+                 watchdog_s: float):
+        if not ahead_s < queue_s:
+            raise DeviceError(f"a queue of {queue_s:g} s cannot take impacts {ahead_s:g} s ahead of playback; "
+                              "give queue more than ahead")
+        self.sink = sink
+        self.name = f"PulseAudio sink {sink!r}" if sink else "the PulseAudio default sink"
+        self.rate_hz = float(rate_hz)
+        self.queue_s, self.ahead_s = float(queue_s), float(ahead_s)
+        self._ahead = int(round(ahead_s * self.rate_hz))
+        self.watchdog_s = watchdog_s
+        self.mixer = QueueMixer(CHANNELS, self.rate_hz, max_voices=max_voices)
+        self.users: set[int] = set()
+        self.underflows = 0
+        self.underflow_times: deque[float] = deque(maxlen=1024)
+        # (time.monotonic(), gap) of the server's requests for audio that came so long after the one before
+        # that the queue had less than `ahead` left: nearly dry.
+        self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
+        self.buffer_changes: list[tuple[float, float, float]] = []  # the queue is never lengthened
+        self.late = 0  # impacts whose first frame the server had read before their write came
+        self.lost = 0  # impacts cut off by an outage
+        self.outage: str | None = None
+        self.outages = 0
+        self.downtime_s: list[float] = []
+        self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
+        self._outage_since = self._last_attempt = 0.0
+        self._last_request = time.monotonic()
+        self._playback: Playback | None = None
+        self._state = threading.Lock()
+        self._stop = threading.Event()
+        self._watchdog: threading.Thread | None = None
+
+    # --- lifetime -------------------------------------------------------------------
+
+    def reserve(self, channel: int, limits: SafetyLimits) -> None:
+        if channel in self.users:
+            raise DeviceError(f"channel {channel} of {self.name} is already used by another actuator")
+        self.mixer.widen(channel + 1)
+        self.mixer.set_limits(channel, limits)
+        if self._playback is None or self._playback.channels < self.mixer.channels:
+            self._open()
+        self.users.add(channel)  # only once it plays: a refused channel is not held
+        if self._watchdog is None:
+            self._watchdog = threading.Thread(target=self._watch, name="hapticfx-soundcard-queue", daemon=True)
+            self._watchdog.start()
+
+    def _open(self) -> None:
+        """(Re)connect; :class:`DeviceError` if the server or the sink refuses."""
+        with self._state:
+            old, self._playback = self._playback, None
+        if old is not None:
+            old.close()
+        self.mixer.restart()  # the new stream's positions start at 0
+        self._last_request = time.monotonic()
+        playback = Playback(
+            rate_hz=self.rate_hz, channels=self.mixer.channels, sink=self.sink, name="hapticfx",
+            queue_frames=int(round(self.queue_s * self.rate_hz)), request_frames=int(round(REQUEST_S * self.rate_hz)),
+            on_request=self._request, on_underflow=self._underflow, on_failure=self._lose,
+        )
+        with self._state:
+            self._playback = playback
+
+    def shutdown(self) -> None:
+        """Leave the server and stop the watchdog (does not wait for queued impacts)."""
+        self._stop.set()
+        self._underflow_log.flush()
+        playback, self._playback = self._playback, None
+        if playback is not None:
+            playback.close()
+
+    # --- on libpulse's thread -------------------------------------------------------
+
+    def _request(self, playback: Playback, frames: int) -> None:
+        now = time.monotonic()
+        gap, self._last_request = now - self._last_request, now
+        if gap > self.queue_s - self.ahead_s:
+            self.late_callbacks.append((now, gap))
+        if frames <= 0:
+            return
+        self.mixer.heard(playback.playing_frame())
+        at, audio = self.mixer.render(frames)
+        playback.write(audio, at)
+
+    def _underflow(self) -> None:
+        self.underflows += 1
+        self.underflow_times.append(time.monotonic())
+
+    # --- outages --------------------------------------------------------------------
+
+    def _lose(self, why: str) -> None:
+        with self._state:
+            if self.outage is not None:
+                return
+            cut = self.mixer.clear()
+            self.lost += cut
+            self.outage = why
+            self._outage_since = time.monotonic()
+            self.outages += 1
+        log.warning("%s unavailable: %s; %d impact(s) cut off; reconnecting", self.name, why, cut)
+
+    def _back(self, how: str) -> None:
+        with self._state:
+            down = time.monotonic() - self._outage_since
+            self.outage = None
+        self.downtime_s.append(down)
+        log.warning("%s is back after %.2f s (%s)", self.name, down, how)
+
+    def _watch(self) -> None:
+        period = min(0.05, self.watchdog_s / 4)
+        told = 0
+        while not self._stop.wait(period):
+            now = time.monotonic()
+            silent = now - self._last_request
+            if self.underflows > told:
+                self._underflow_log.event("underflow", (
+                    f"{self.name}: {self.underflows - told} underflow(s), gaps in the sound: the queue of "
+                    f"{self.queue_s * 1e3:.0f} ms ran dry; if they go on, give the actuator a longer queue"))
+                told = self.underflows
+            if self.outage is None:
+                if silent > self.watchdog_s:
+                    self._lose(f"no request for audio for {silent:.2f} s (sound server stalled)")
+                continue
+            if self._playback is not None and not self._playback.failed:
+                if silent < 2 * period:
+                    self._back("the stream resumed")
+                continue
+            if now - self._last_attempt < RETRY_S:
+                continue
+            self._last_attempt = now
+            try:
+                self._open()
+            except DeviceError:
+                continue
+            self._back("stream reopened")
+
+    # --- caller side ----------------------------------------------------------------
+
+    def check(self) -> None:
+        """Raise :class:`DeviceError` while the server is unavailable."""
+        why = self.outage
+        if why is not None:
+            raise DeviceError(f"{self.name} unavailable: {why}; reconnecting")
+
+    def play(self, channel: int, samples: np.ndarray) -> None:
+        playback = self._playback
+        if playback is None:
+            self.check()
+            raise DeviceError(f"{self.name} is being reconnected")
+        # libpulse's lock before ours: its thread takes them in that order when the server fails
+        with playback.locked(), self._state:
+            self.check()
+            if playback is not self._playback:
+                raise DeviceError(f"{self.name} is being reconnected")
+            written = self.mixer.add_at(channel, samples, playback.playing_frame() + self._ahead)
+            if written is not None:
+                start, audio = written
+                playback.write(audio, start)
+                playback.read_index_then(lambda read: self._landed(start, read))
+
+    def _landed(self, start: int, read: int) -> None:
+        if read > start:
+            self.late += 1
+
+    def drain(self, timeout_s: float | None) -> None:
+        """Wait until every queued impact has been played (its lead included)."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while self.mixer.busy:
+            self.check()
+            if deadline is not None and time.monotonic() > deadline:
+                raise DeviceError(f"{self.name} did not finish playing within {timeout_s:g} s")
+            time.sleep(0.005)
+        self.check()
+
+    @property
+    def output_latency_s(self) -> float:
+        """How far ahead of playback a new impact is written: its latency."""
+        return self.ahead_s

@@ -1,0 +1,170 @@
+"""The queue at the PulseAudio server (``queue``), new impacts written over it ``ahead`` of playback.
+
+The mixer tests need no server; the others play into the real null sink and record its monitor.
+"""
+
+import os
+import subprocess
+import time
+
+import numpy as np
+import pytest
+from hapticfx.errors import DeviceError, DeviceUnavailable, EffectError
+from hapticfx.interfaces import SafetyLimits
+from hapticfx.params import BuildContext
+from hapticfx.signal import Signal
+
+from hapticfx_soundcard.actuator import VibroTransducer
+from hapticfx_soundcard.bench import LoopbackRecorder, click, onsets
+from hapticfx_soundcard.mixer import QUANTUM, QueueMixer
+
+RATE = 48000
+LIMITS = SafetyLimits(peak=1.0, rms=0.7)
+
+
+def burst(n, amp, seed):
+    return np.random.default_rng(seed).uniform(-amp, amp, n)
+
+
+def timeline_of(mixer, steps, size=16384):
+    """Play ``steps`` into ``mixer`` and return what the server would hold: each ``("render", frames)``
+    written at its position, each ``("add", channel, samples, at)`` written over it."""
+    held = np.zeros((size, mixer.channels), dtype=np.float32)
+    for step in steps:
+        if step[0] == "render":
+            at, audio = mixer.render(step[1])
+        else:
+            written = mixer.add_at(*step[1:])
+            if written is None:
+                continue
+            at, audio = written
+        held[at:at + audio.shape[0]] = audio
+    return held
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("at", [0, 700, 1024, 2047])
+def test_an_impact_written_over_the_queue_continues_what_was_sent_exactly(at, dtype):
+    """Limited again from the impact's quantum on, the audio the server ends up with is what it would
+    be had the impact been known before anything was written: the limiter's seam is invisible."""
+    a, b = burst(3000, 1.5, 1).astype(dtype), burst(2000, 1.5, 2).astype(dtype)
+    live = QueueMixer(1, RATE)
+    live.set_limits(0, LIMITS)
+    got = timeline_of(live, [("add", 0, a, 100), ("render", 2000), ("add", 0, b, at), ("render", 4000)])
+    start = -(-at // QUANTUM) * QUANTUM  # an impact starts at a quantum
+    known = QueueMixer(1, RATE)
+    known.set_limits(0, LIMITS)
+    want = timeline_of(known, [("add", 0, a, 100), ("add", 0, b, start), ("render", 2000), ("render", 4000)])
+    np.testing.assert_array_equal(got, want)
+    assert np.abs(got).max() <= 1.0 and live.report(0) == known.report(0)
+    assert live.report(0).peak_events > 0  # the limiter did act on the bursts
+
+
+def test_a_queue_mixer_forgets_what_was_heard_and_counts_voices_until_then():
+    m = QueueMixer(2, RATE, max_voices=2)
+    m.set_limits(0, LIMITS)
+    m.set_limits(1, LIMITS)
+    m.render(1024)
+    assert m.add_at(0, np.full(100, 0.2), 10) is not None  # written already: comes back to write over
+    assert m.add_at(1, np.full(100, 0.2), 5000) is None  # not written yet: rendered with it in
+    assert m.add_at(0, np.full(100, 0.2), 20) is None and m.refused == 1
+    assert m.voices == 2
+    m.heard(200)
+    assert m.voices == 1
+    at, audio = m.render(8000)
+    start = 79 * QUANTUM  # the first quantum at or after frame 5000
+    assert audio[start - at:start + 100 - at, 1] == pytest.approx(0.2)
+    assert not audio[:start - at, 1].any() and not audio[start + 100 - at:, 1].any()
+    m.heard(at + 8000)
+    assert m.voices == 0 and not m.busy
+    assert m.add_at(0, np.full(10, 0.2), 0) is None  # not into what was heard: after what was written
+    assert m.restart() == 1 and m.render(64)[0] == 0
+
+
+def test_ahead_must_be_shorter_than_the_queue():
+    with pytest.raises(EffectError, match=r"scene.yaml: actuator.ahead: ahead \(0.05 s\) must be shorter than "
+                                          r"queue \(0.02 s\)"):
+        VibroTransducer(VibroTransducer.Params(queue=0.02, ahead=0.05), BuildContext(source="scene.yaml"))
+
+
+def test_without_libpulse_the_queue_says_what_to_install(monkeypatch):
+    """A stand-in: the library cannot be uninstalled here, so loading it is made to fail as it would."""
+    from hapticfx_soundcard import libpulse
+
+    def missing(name):
+        raise OSError(f"{name}: cannot open shared object file: No such file or directory")
+
+    monkeypatch.setattr(libpulse, "_lib", None)
+    monkeypatch.setattr(libpulse.C, "CDLL", missing)
+    with pytest.raises(DeviceUnavailable, match="apt-get install libpulse0"):
+        libpulse.load()
+
+
+@pytest.mark.soundserver
+def test_an_impact_is_heard_ahead_of_playback_not_behind_the_queue(soundserver):
+    """A 200 ms queue, yet each click is heard about 8 ms after play(): written over the queue."""
+    with VibroTransducer(VibroTransducer.Params(queue=0.2, ahead=0.008), BuildContext(device="default")) as act:
+        with LoopbackRecorder(RATE) as rec:
+            time.sleep(0.3)
+            calls = []
+            for _ in range(10):
+                calls.append(rec.now())
+                act.play(Signal(click(RATE), RATE))
+                time.sleep(0.1)
+            time.sleep(0.3)
+        x, t = rec.capture.timeline(0)
+        assert act.underflows == 0 and act.losses() == {}
+    heard = onsets(x, t)
+    assert len(heard) == 10
+    latency = heard - np.array(calls)
+    assert np.all((latency > 0.004) & (latency < 0.05)), latency  # the queue (200 ms) is not waited out
+
+
+@pytest.mark.soundserver
+def test_impacts_written_over_the_queue_are_mixed_and_limited(soundserver):
+    """A click written over a tone already queued adds to it, and the channel's limiter caps the sum."""
+    tone = 0.6 * np.sin(2 * np.pi * 100 * np.arange(int(0.5 * RATE)) / RATE)
+    with VibroTransducer(VibroTransducer.Params(queue=0.1), BuildContext(device="default")) as act:
+        with LoopbackRecorder(RATE) as rec:
+            time.sleep(0.2)
+            act.play(Signal(tone, RATE))
+            time.sleep(0.2)
+            act.play(Signal(np.full(480, 0.6), RATE))  # over the tone's queued part: 1.2 before the limiter
+            act.drain()
+            time.sleep(0.2)
+        x = np.concatenate(rec.capture.blocks)[:, 0]
+        assert act.limiter_report().peak_events >= 1
+    assert 0.95 < np.abs(x).max() <= 1.0 + 1e-6
+    assert 0.55 < np.percentile(np.abs(x), 99.5)  # the tone itself sounded
+
+
+@pytest.mark.soundserver
+def test_an_unknown_sink_is_a_clear_error(soundserver):
+    with pytest.raises(DeviceError, match=r"cannot play on sink 'no-such-sink'.*pactl list short sinks"):
+        VibroTransducer(VibroTransducer.Params(queue=0.1), BuildContext(device="no-such-sink")).open()
+
+
+@pytest.mark.soundserver
+def test_a_pause_of_the_machine_shorter_than_the_queue_leaves_no_gap(soundserver):
+    """The server and this process stopped together for 40 ms, as when the host pauses the guest
+    (docs/benchmarks.md): the 100 ms queue plays on, while a PortAudio 'low' stream beside it, the
+    shipped default, underflows (which shows the stops were felt)."""
+    server = int((open(os.path.join(soundserver, "pulse", "pid")).read()).strip())
+    queued = VibroTransducer(VibroTransducer.Params(queue=0.1), BuildContext(device="default", channel=0))
+    low = VibroTransducer(VibroTransducer.Params(queue=0.0, max_latency=0.0), BuildContext(device="default", channel=1))
+    with queued, low:
+        time.sleep(0.5)
+        underflows = low.underflows
+        for _ in range(5):
+            subprocess.run(["sh", "-c", f"kill -STOP {server} {os.getpid()}; sleep 0.04; "
+                                        f"kill -CONT {server} {os.getpid()}"], check=True)
+            time.sleep(0.3)
+        assert low.underflows > underflows
+        assert queued.underflows == 0 and not queued.late_callbacks
+        with LoopbackRecorder(RATE) as rec:  # and it goes on playing
+            time.sleep(0.1)
+            queued.play(Signal(click(RATE), RATE))
+            time.sleep(0.2)
+    x, t = rec.capture.timeline(0)
+    assert len(onsets(x, t)) == 1
+
