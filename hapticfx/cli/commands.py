@@ -99,9 +99,10 @@ def play(
         delivery = pipeline.impact(velocity=velocity, object=object)
         _warn(delivery)
         pipeline.actuator.wait(timeout=delivery.output.duration_s + 2.0)
+        where = pipeline.actuator.describe()  # while open: how it plays, too
     finally:
         pipeline.close()
-    typer.echo(_summary(pipeline, delivery, pipeline.actuator.describe()))
+    typer.echo(_summary(pipeline, delivery, where))
 
 
 def render(
