@@ -108,6 +108,36 @@ class SafetyLimiter:
             self._tail = np.concatenate([self._tail, flat])[-keep:] if keep else np.zeros(0)
         return x
 
+    def process_blocks(self, samples, *, block: int, at_s: float) -> tuple[np.ndarray, list[tuple]]:
+        """``process`` over ``samples`` (1D) cut into consecutive blocks of ``block`` samples, the first
+        at ``at_s``: the output, and the :meth:`state` before each block.
+
+        The same as calling ``process`` block by block, and at once where no limit acts anywhere in
+        the run (the usual case; pulse limits always go block by block).
+        """
+        x = valid_signal(samples, name="limiter input", ndim=1)
+        starts = range(0, x.size, block)
+        with self._lock:
+            keep = self._win - 1
+            if self._max_on_s is None and self._max_duty is None and float(np.max(np.abs(x))) <= self._peak:
+                tail = self._tail
+                if at_s > self._clock_s and keep:
+                    tail = np.concatenate([tail, np.zeros(min(int((at_s - self._clock_s) * self.rate_hz), keep))])[-keep:]
+                joined = np.concatenate([tail, x])
+                if not self._over_budget(joined, slack=1 + 1e-12):  # then no block's own check would act
+                    fixed = dict(self._counts), self._max_reduction
+                    states = [(self._tail, tuple(self._on_history), self._clock_s, *fixed)]
+                    states += [(joined[max(0, tail.size + k - keep):tail.size + k] if keep else np.zeros(0), (),
+                                at_s + k / self.rate_hz, *fixed) for k in starts[1:]]
+                    self._tail = joined[-keep:] if keep else np.zeros(0)
+                    self._clock_s = at_s + x.size / self.rate_hz
+                    return x.copy(), states
+        states, out = [], np.empty_like(x)
+        for k in starts:
+            states.append(self.state())
+            out[k:k + block] = self.process(x[k:k + block], at_s=at_s + k / self.rate_hz)
+        return out, states
+
     def state(self) -> tuple:
         """Everything ``process`` changes, to :meth:`restore` later and limit the same stretch again
         (audio written ahead of playback and then mixed into: the output goes on exactly from there)."""

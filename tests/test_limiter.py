@@ -135,3 +135,31 @@ def test_a_restored_state_limits_the_same_blocks_the_same_way():
     for a, b in zip(first, again):
         np.testing.assert_array_equal(a, b)
     assert lim.report() == report and report.total > 0
+
+
+@pytest.mark.parametrize("limits", [
+    SafetyLimits(peak=1.0, rms=0.7, rms_window_s=0.05),
+    SafetyLimits(peak=0.8, rms=0.3, rms_window_s=0.05, max_on_s=0.03, max_duty=0.5, duty_window_s=0.2),
+])
+@pytest.mark.parametrize("amp", [0.2, 0.6, 3.0])  # no limit acts; the RMS limit acts; all act
+def test_a_run_of_blocks_at_once_is_the_same_as_block_by_block(limits, amp):
+    """What the sound-card queue limits its queued audio with: output, events and the state before
+    each block as from process() called block by block, gaps of silence between runs included."""
+    one, many = SafetyLimiter(limits, RATE), SafetyLimiter(limits, RATE)
+    t = 0.0
+    for run in range(4):
+        x = np.random.default_rng(run).uniform(-amp, amp, 64 * 5 + 7)
+        got, states = many.process_blocks(x, block=64, at_s=t)
+        want, want_states = [], []
+        for k in range(0, x.size, 64):
+            want_states.append(one.state())
+            want.append(one.process(x[k:k + 64], at_s=t + k / RATE))
+        np.testing.assert_array_equal(got, np.concatenate(want))
+        assert len(states) == len(want_states)
+        for s, w in zip(states, want_states):
+            tail, history, clock, counts, reduction = s
+            np.testing.assert_array_equal(tail, w[0])
+            assert (history, counts, reduction) == (w[1], w[3], w[4])
+            assert clock == pytest.approx(w[2], abs=1e-12)
+        assert one.report() == many.report()
+        t += x.size / RATE + 0.01 * run  # then a gap of silence

@@ -176,13 +176,20 @@ class QueueMixer(Mixer):
         if again:
             for (ch, lim), state in zip(limiters, self._states[start]):
                 lim.restore(state)
-        for q in range(start, stop, QUANTUM):
-            self._states[q] = [lim.state() for _, lim in limiters]
-            first = q % self._size  # the ring's size is a multiple of QUANTUM: a quantum never wraps
-            block = self._ring[:, first:first + QUANTUM]
-            for ch, lim in limiters:
-                if block[ch].any():
-                    out[q - start:q - start + QUANTUM, ch] = lim.process(block[ch], at_s=q / self.rate_hz)
+        first = start % self._size
+        idx = slice(first, first + stop - start) if first + stop - start <= self._size else \
+            np.arange(first, first + stop - start) % self._size
+        quanta = range(start, stop, QUANTUM)
+        per_channel = []
+        for ch, lim in limiters:
+            x = self._ring[ch, idx]
+            if x.any():
+                out[:, ch], states = lim.process_blocks(x, block=QUANTUM, at_s=start / self.rate_hz)
+            else:  # silence leaves the limiter as it is; its next block counts the gap
+                states = [lim.state()] * len(quanta)
+            per_channel.append(states)
+        for i, q in enumerate(quanta):
+            self._states[q] = [states[i] for states in per_channel]
         return out
 
     def render(self, frames: int) -> tuple[int, np.ndarray]:
