@@ -10,6 +10,7 @@ mixing output stream on the actuator's channel.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import sys
 from dataclasses import dataclass, field
 from typing import ClassVar, Literal
@@ -23,6 +24,10 @@ from hapticfx.signal import Signal
 from . import queuestream
 from . import stream as streams
 from .devices import negotiate_rate, resolve_device
+
+log = logging.getLogger(__name__)
+# queue: auto. A 100 ms queue ran dry once, 18 ms after the machine paused for 75.5 ms (docs/benchmarks.md).
+AUTO_QUEUE_S = 0.15
 
 
 @dataclass(frozen=True)
@@ -41,10 +46,11 @@ class SoundCardParams:
         "impacts sounding at once; one more is not mixed in (1000 fit a 48-frame block: docs/benchmarks.md)",
         min=1, max=4096))
     watchdog_s: float = field(default=0.5, metadata=doc("a stream silent this long is an outage, then reopened", min=0.05, max=5.0))
-    queue: float = field(default=0.0, metadata=doc(
+    queue: Literal["auto"] | float = field(default="auto", metadata=doc(
         "seconds of audio kept queued at a PulseAudio (or PipeWire-Pulse) server, so that pauses of the machine "
         "shorter than it leave no gap; each impact is written over the queue `ahead` before playback "
-        "(docs/soundcard.md); device then names a sink; 0: a PortAudio stream of `latency`", min=0.0, max=2.0))
+        "(docs/soundcard.md); device then names a sink; 0: a PortAudio stream of `latency`; 'auto': a 0.15 s "
+        "queue on the default device when a PulseAudio server answers, else PortAudio", min=0.0, max=2.0))
     ahead: float = field(default=0.01, metadata=doc(
         "with queue: how far ahead of playback a new impact is written, i.e. its latency", min=0.002, max=0.5))
 
@@ -79,7 +85,7 @@ class SoundCardActuator(Actuator):
         )
         self.limits = self.spec.limits
         queue = self.params.queue
-        if queue and not self.params.ahead < queue:
+        if queue != "auto" and queue and not self.params.ahead < queue:
             raise EffectError(f"ahead ({self.params.ahead:g} s) must be shorter than queue ({queue:g} s)",
                               source=context.source, key="actuator.ahead")
         self.note: str | None = None
@@ -89,12 +95,18 @@ class SoundCardActuator(Actuator):
         if self._stream is not None:
             return
         p = self.params
-        if p.queue:
-            sink = None if self.device_request in (None, "default") else str(self.device_request)
-            self._stream = queuestream.acquire(
-                sink, channel=self.channel, rate_hz=self.spec.rate_hz, limits=self.limits, queue_s=p.queue,
-                ahead_s=p.ahead, max_voices=p.max_impacts, watchdog_s=p.watchdog_s)
-            return
+        default_device = self.device_request in (None, "default")
+        if p.queue == "auto" and default_device or p.queue not in ("auto", 0):
+            try:
+                self._stream = queuestream.acquire(
+                    None if default_device else str(self.device_request), channel=self.channel,
+                    rate_hz=self.spec.rate_hz, limits=self.limits, queue_s=AUTO_QUEUE_S if p.queue == "auto" else p.queue,
+                    ahead_s=p.ahead, max_voices=p.max_impacts, watchdog_s=p.watchdog_s)
+                return
+            except DeviceError as exc:
+                if p.queue != "auto":
+                    raise
+                log.debug("%s: no PulseAudio queue (%s); PortAudio instead", self.name, exc)
         device = resolve_device(self.device_request)
         rate, self.note = negotiate_rate(device, self.spec.rate_hz, channels=min(2, device.channels))
         if self.note:

@@ -191,7 +191,7 @@ def bench_output(
     queue: Optional[float] = typer.Option(None, "--queue", min=0.0, max=2.0,
                                           help="The actuator's queue option: seconds queued at the PulseAudio server, "
                                                "impacts written over them; 0: the PortAudio stream of --latency "
-                                               "(default: the actuator's)."),
+                                               "(default: the shipped 'auto', a 0.15 s queue where a server answers)."),
     ahead: Optional[float] = typer.Option(None, "--ahead", min=0.002, max=0.5,
                                           help="With --queue: how far ahead of playback impacts are written "
                                                "(default: the actuator's shipped ahead)."),
@@ -213,7 +213,8 @@ def bench_output(
     priority where permitted) and against the stream's late callbacks (gaps longer than
     its buffer, on its own clock). Where underflows lengthen the stream's buffer (up to
     max_latency), the latency table is given for each buffer. With a queue at the PulseAudio
-    server (--queue) impacts are written over it, and --latency does not apply.
+    server (the shipped default where one answers; --queue) impacts are written over it, and
+    --latency does not apply: give --queue 0 to time PortAudio streams.
     Needs a sound server whose
     default input records the output (the PulseAudio null sink of .ci/soundserver.sh).
     Capacity: the audio callback's wall time at the block sizes PortAudio uses here,
@@ -227,7 +228,7 @@ def bench_output(
         if not p.is_file():
             raise SignalError(f"{p}: no such effect file (run from the repository root, or name effect files)")
     typer.echo(f"## impact to first sample (ms), {len(paths)} models")
-    for latency in latencies if not queue else latencies[:1]:
+    for latency in latencies if queue == 0 else latencies[:1]:
         _latency_section(paths, impacts, latency, max_latency, device, gap, queue, ahead)
 
     typer.echo(f"\n## mixer capacity (one core, 48 kHz, limiter on; {seconds:g} s of audio per point)\n")

@@ -65,7 +65,7 @@ def corr(a, b):
 
 def test_played_signal_comes_back_unchanged(soundserver):
     sig = impact()
-    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
+    with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(device="default")) as act:
         assert act.spec.rate_hz == RATE
         assert sys.getswitchinterval() <= 0.001  # the Python callback gets the GIL within a block
         cap = record_while(lambda: act.play(Signal(sig, RATE)), sig.size / RATE, act)
@@ -79,7 +79,7 @@ def test_played_signal_comes_back_unchanged(soundserver):
 
 def test_overlapping_impacts_add_up_in_one_stream(soundserver):
     a, b = impact(f=120.0, amp=0.3), impact(n=1800, f=330.0, amp=0.25)
-    with VibroTransducer(VibroTransducer.Params(), BuildContext()) as act:
+    with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext()) as act:
         def both():
             act.play(Signal(a, RATE))
             time.sleep(0.02)  # b starts while a still sounds
@@ -101,8 +101,8 @@ def test_overlapping_impacts_add_up_in_one_stream(soundserver):
 
 def test_two_actuators_share_a_device_one_channel_each(soundserver):
     a, b = impact(f=150.0), impact(f=400.0, amp=0.2)
-    vib = VibroTransducer(VibroTransducer.Params(), BuildContext(device="default", channel=0))
-    hap = Haptuator(Haptuator.Params(), BuildContext(device="default", channel=1))
+    vib = VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(device="default", channel=0))
+    hap = Haptuator(Haptuator.Params(queue=0.0), BuildContext(device="default", channel=1))
     with vib, hap:
         assert vib._stream is hap._stream  # one stream per device
         cap = record_while(lambda: (vib.play(Signal(a, RATE)), hap.play(Signal(b, RATE))), a.size / RATE, vib)
@@ -114,7 +114,7 @@ def test_two_actuators_share_a_device_one_channel_each(soundserver):
 
 def test_a_signal_at_another_rate_is_resampled(soundserver):
     sig1k = impact(n=200, f=80.0)
-    with VibroTransducer(VibroTransducer.Params(), BuildContext()) as act:
+    with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext()) as act:
         cap = record_while(lambda: act.play(Signal(sig1k, 1000.0)), 0.25, act)[:, 0]
     from hapticfx.shaping import resample
 
@@ -125,7 +125,7 @@ def test_a_signal_at_another_rate_is_resampled(soundserver):
 
 def test_drain_waits_until_heard_and_close_drains(soundserver):
     sig = impact(n=RATE // 2)  # 0.5 s
-    with VibroTransducer(VibroTransducer.Params(), BuildContext()) as act:
+    with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext()) as act:
         t = time.monotonic()
         act.play(Signal(sig, RATE))
         queued = time.monotonic() - t
@@ -140,23 +140,23 @@ def test_device_by_name_and_index(soundserver):
 
     pulse = next(d for d in output_devices() if d.name == "pulse")
     for device in ("pulse", pulse.index, str(pulse.index)):
-        with VibroTransducer(VibroTransducer.Params(), BuildContext(device=device)) as act:
+        with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(device=device)) as act:
             act.play(Signal(impact(n=480), RATE))
             act.drain(timeout=2.0)
 
 
 def test_unknown_device_is_a_clear_error(soundserver):
-    act = VibroTransducer(VibroTransducer.Params(), BuildContext(device="no-such-card"))
+    act = VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(device="no-such-card"))
     with pytest.raises(DeviceError, match=r"no sound output device matches 'no-such-card'; outputs: .*pulse"):
         act.open()
     with pytest.raises(DeviceError, match="index 99"):
-        VibroTransducer(VibroTransducer.Params(), BuildContext(device=99)).open()
+        VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(device=99)).open()
     with pytest.raises(DeviceError, match="channel 40 does not exist"):
-        VibroTransducer(VibroTransducer.Params(), BuildContext(channel=40)).open()
+        VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(channel=40)).open()
 
 
 def test_a_refused_rate_falls_back_to_the_device_default(soundserver, capsys):
-    act = VibroTransducer(VibroTransducer.Params(rate_hz=400000), BuildContext())
+    act = VibroTransducer(VibroTransducer.Params(queue=0.0, rate_hz=400000), BuildContext())
     assert act.spec.rate_hz == 400000  # known before the device is touched
     with act:
         assert act.spec.rate_hz != 400000
@@ -167,11 +167,11 @@ def test_a_refused_rate_falls_back_to_the_device_default(soundserver, capsys):
 
 
 def test_same_channel_twice_and_mismatched_rates_are_refused(soundserver):
-    with VibroTransducer(VibroTransducer.Params(), BuildContext(channel=0)):
+    with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(channel=0)):
         with pytest.raises(DeviceError, match="already used"):
-            Haptuator(Haptuator.Params(), BuildContext(channel=0)).open()
+            Haptuator(Haptuator.Params(queue=0.0), BuildContext(channel=0)).open()
         with pytest.raises(DeviceError, match="already streams at 48000 Hz"):
-            Haptuator(Haptuator.Params(rate_hz=44100), BuildContext(channel=1)).open()
+            Haptuator(Haptuator.Params(queue=0.0, rate_hz=44100), BuildContext(channel=1)).open()
 
 
 def test_play_before_open_is_an_error(soundserver):
@@ -287,7 +287,7 @@ def stop_this_process_until_an_underflow(act, seconds=0.15):
 def test_a_stream_left_unfed_longer_than_its_buffer_counts_times_and_tells_the_underflow(soundserver, caplog):
     """What ``bench output`` reports of a stop; the user is told once, with the remedy; an underflow
     as the stream starts is not a gap and is not told. ``max_latency: 0`` keeps the buffer."""
-    with settled_transducer(VibroTransducer.Params(max_latency=0.0), caplog) as act:
+    with settled_transducer(VibroTransducer.Params(queue=0.0, max_latency=0.0), caplog) as act:
         assert 0.001 < act.output_latency_s < 0.06
         before, times_before, buffer = act.underflows, act.underflow_times, act.output_latency_s
         t0 = stop_this_process_until_an_underflow(act)
@@ -313,7 +313,7 @@ def test_after_an_underflow_the_buffer_is_lengthened_up_to_max_latency_and_still
                                                                                         max_latency):
     """The 150 ms stop asks for more than either cap: the stream is reopened at the cap (at least twice
     the 8.7 ms it had), is told of once, and what is played after comes back unchanged."""
-    with settled_transducer(VibroTransducer.Params(max_latency=max_latency), caplog) as act:
+    with settled_transducer(VibroTransducer.Params(queue=0.0, max_latency=max_latency), caplog) as act:
         was = act.output_latency_s
         t0 = stop_this_process_until_an_underflow(act)
         time.sleep(0.3)
@@ -334,7 +334,7 @@ def test_after_an_underflow_the_buffer_is_lengthened_up_to_max_latency_and_still
 
 def test_a_longer_buffer_waits_until_nothing_sounds(soundserver):
     """Reopening drops what the old stream held: an impact sounding at the stop is not cut by the switch."""
-    with settled_transducer(VibroTransducer.Params()) as act:
+    with settled_transducer(VibroTransducer.Params(queue=0.0)) as act:
         act.play(Signal(np.full(int(0.8 * RATE), 0.1), RATE))
         played = time.monotonic()
         time.sleep(0.1)

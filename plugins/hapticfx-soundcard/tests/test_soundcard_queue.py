@@ -5,6 +5,7 @@ The mixer tests need no server; the others play into the real null sink and reco
 
 import os
 import subprocess
+import sys
 import time
 
 import numpy as np
@@ -168,3 +169,26 @@ def test_a_pause_of_the_machine_shorter_than_the_queue_leaves_no_gap(soundserver
     x, t = rec.capture.timeline(0)
     assert len(onsets(x, t)) == 1
 
+
+@pytest.mark.soundserver
+def test_auto_takes_the_queue_on_the_default_device_and_portaudio_elsewhere(soundserver):
+    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
+        assert act.queue_s == 0.15 and act.output_latency_s == 0.01
+        assert "a 150 ms queue at the PulseAudio server" in act.describe()
+    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="pulse")) as act:  # a PortAudio device
+        assert act.queue_s == 0.0
+
+
+def test_auto_without_a_sound_server_falls_back_to_portaudio_quietly(tmp_path):
+    """No server in this runtime dir: the queue is not had, and the error is PortAudio's, as before."""
+    code = ("from hapticfx.errors import DeviceUnavailable\n"
+            "from hapticfx_soundcard.actuator import VibroTransducer\n"
+            "try:\n    VibroTransducer().open()\nexcept DeviceUnavailable as exc:\n    print(exc)\n")
+    env = {k: v for k, v in os.environ.items() if k not in ("PULSE_SERVER", "HAPTICFX_DEVICE_NOISE")}
+    env["XDG_RUNTIME_DIR"] = str(tmp_path)
+    (tmp_path / "client.conf").write_text("autospawn = no\n")  # nor may PortAudio's ALSA plugin start one
+    env["PULSE_CLIENTCONFIG"] = str(tmp_path / "client.conf")
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "no default sound output device" in done.stdout
+    assert "PulseAudio" not in done.stdout + done.stderr
