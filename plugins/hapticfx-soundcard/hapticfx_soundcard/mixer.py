@@ -80,20 +80,34 @@ class Mixer:
 
         False (and counted in ``refused``) when ``max_voices`` impacts are sounding.
         """
+        x = self._voice(channel, samples)
+        with self._lock:
+            if not self._room():
+                return False
+            self._place(channel, self._clock, x)
+        return True
+
+    def _voice(self, channel: int, samples: np.ndarray) -> np.ndarray:
+        """One impact's samples, as the ring takes them (cut to half its length, counted)."""
         if self._limiters[channel] is None:
             raise SignalError(f"channel {channel} has no safety limits; call set_limits first")
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
         if x.size > self._size // 2:
             x = x[: self._size // 2]
             self.truncated += 1
-        with self._lock:
-            self._prune()
-            if len(self._ends) >= self.max_voices:
-                self.refused += 1
-                return False
-            self._add_at(channel, self._clock, x)
-            heapq.heappush(self._ends, self._clock + x.size)
+        return x
+
+    def _room(self) -> bool:
+        """Whether one more impact may sound (else it is counted in ``refused``); with the lock held."""
+        self._prune()
+        if len(self._ends) >= self.max_voices:
+            self.refused += 1
+            return False
         return True
+
+    def _place(self, channel: int, start: int, x: np.ndarray) -> None:
+        self._add_at(channel, start, x)
+        heapq.heappush(self._ends, start + x.size)
 
     def clear(self) -> int:
         """Silence everything queued or sounding; returns how many impacts were cut."""
@@ -209,20 +223,12 @@ class QueueMixer(Mixer):
         in, to write over the queue. None when nothing from there on was written yet (it will be
         rendered with the impact in), or when ``max_voices`` impacts are sounding (counted in ``refused``).
         """
-        if self._limiters[channel] is None:
-            raise SignalError(f"channel {channel} has no safety limits; call set_limits first")
-        x = np.asarray(samples, dtype=np.float64).reshape(-1)
-        if x.size > self._size // 2:
-            x = x[: self._size // 2]
-            self.truncated += 1
+        x = self._voice(channel, samples)
         with self._lock:
-            self._prune()
-            if len(self._ends) >= self.max_voices:
-                self.refused += 1
+            if not self._room():
                 return None
             at = max(-(-int(at) // QUANTUM) * QUANTUM, self._kept)
-            self._add_at(channel, at, x)
-            heapq.heappush(self._ends, at + x.size)
+            self._place(channel, at, x)
             if at >= self._clock:
                 return None
             return at, self._limit(at, self._clock, again=True)

@@ -36,69 +36,35 @@ from hapticfx.ratelog import RateLimitedLog
 
 from .libpulse import Playback
 from .mixer import QueueMixer
-from .stream import RETRY_S, UNDERFLOW_LOG_S, keep_the_gil_moving
+from .shared import SharedStream, Streams
+from .stream import UNDERFLOW_LOG_S
 
 log = logging.getLogger(__name__)
 
 REQUEST_S = 0.005  # the server asks for more audio whenever this much was played (minreq)
 CHANNELS = 2  # the stream's channels to start with (the paper's two voice-coil actuators); more reopen it
 
-_streams: dict[str, "QueueStream"] = {}
-_streams_lock = threading.Lock()
+_streams = Streams()  # by sink name ("": the default sink)
+atexit.register(_streams.shutdown_all)  # libpulse's thread calls into Python: it must go before the interpreter does
 
 
 def acquire(sink: str | None, *, channel: int, rate_hz: float, limits: SafetyLimits, queue_s: float,
             ahead_s: float, max_voices: int, watchdog_s: float) -> "QueueStream":
     """The queue stream on ``sink`` (None: the server's default) with ``channel`` reserved (opened on
     first use; the first actuator on a sink sets its rate, queue, lead and voice count)."""
-    key = sink or ""
-    with _streams_lock:
-        stream = _streams.get(key)
-        if stream is None:
-            keep_the_gil_moving()
-            stream = QueueStream(sink, rate_hz, queue_s=queue_s, ahead_s=ahead_s, max_voices=max_voices,
-                                 watchdog_s=watchdog_s)
-            _streams[key] = stream
-        elif stream.rate_hz != rate_hz:
-            raise DeviceError(f"{stream.name} already streams at {stream.rate_hz:g} Hz for another actuator; "
-                              f"give both the same rate_hz")
-        try:
-            stream.reserve(channel, limits)
-        except DeviceError:
-            if not stream.users:
-                stream.shutdown()
-                _streams.pop(key, None)
-            raise
-        return stream
+    def make():
+        return QueueStream(sink, rate_hz, queue_s=queue_s, ahead_s=ahead_s, max_voices=max_voices,
+                           watchdog_s=watchdog_s)
 
-
-def _shutdown_all() -> None:
-    with _streams_lock:
-        open_streams = list(_streams.values())
-        _streams.clear()
-    for stream in open_streams:
-        stream.shutdown()
-
-
-atexit.register(_shutdown_all)  # libpulse's thread calls into Python: it must go before the interpreter does
+    return _streams.acquire(sink or "", make, channel=channel, rate_hz=rate_hz, limits=limits)
 
 
 def release(stream: "QueueStream", channel: int, *, drain_timeout_s: float) -> None:
     """Give ``channel`` back; the last actuator on a sink closes its stream after draining it."""
-    with _streams_lock:
-        stream.users.discard(channel)
-        last = not stream.users
-        if last and _streams.get(stream.sink or "") is stream:
-            del _streams[stream.sink or ""]
-    if last:
-        try:
-            if stream.outage is None:
-                stream.drain(drain_timeout_s)
-        finally:
-            stream.shutdown()
+    _streams.release(stream.sink or "", stream, channel, drain_timeout_s=drain_timeout_s)
 
 
-class QueueStream:
+class QueueStream(SharedStream):
     """A PulseAudio playback stream holding ``queue_s`` of audio, new impacts written ``ahead_s`` before
     playback, shared by the actuators on its channels and reconnected after an outage."""
 
@@ -107,14 +73,12 @@ class QueueStream:
         if not ahead_s < queue_s:
             raise DeviceError(f"a queue of {queue_s:g} s cannot take impacts {ahead_s:g} s ahead of playback; "
                               "give queue more than ahead")
+        super().__init__(f"PulseAudio sink {sink!r}" if sink else "the PulseAudio default sink",
+                         QueueMixer(CHANNELS, rate_hz, max_voices=max_voices), rate_hz)
         self.sink = sink
-        self.name = f"PulseAudio sink {sink!r}" if sink else "the PulseAudio default sink"
-        self.rate_hz = float(rate_hz)
         self.queue_s, self.ahead_s = float(queue_s), float(ahead_s)
         self._ahead = int(round(ahead_s * self.rate_hz))
         self.watchdog_s = watchdog_s
-        self.mixer = QueueMixer(CHANNELS, self.rate_hz, max_voices=max_voices)
-        self.users: set[int] = set()
         self.underflows = 0
         self.underflow_times: deque[float] = deque(maxlen=1024)
         # (time.monotonic(), gap) of the server's requests for audio that came so long after the one before
@@ -122,31 +86,15 @@ class QueueStream:
         self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
         self.buffer_changes: list[tuple[float, float, float]] = []  # the queue is never lengthened
         self.late = 0  # impacts whose first frame the server had read before their write came
-        self.lost = 0  # impacts cut off by an outage
-        self.outage: str | None = None
-        self.outages = 0
-        self.downtime_s: list[float] = []
         self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
-        self._outage_since = self._last_attempt = 0.0
         self._last_request = time.monotonic()
         self._playback: Playback | None = None
-        self._state = threading.Lock()
         self._stop = threading.Event()
-        self._watchdog: threading.Thread | None = None
 
     # --- lifetime -------------------------------------------------------------------
 
-    def reserve(self, channel: int, limits: SafetyLimits) -> None:
-        if channel in self.users:
-            raise DeviceError(f"channel {channel} of {self.name} is already used by another actuator")
-        self.mixer.widen(channel + 1)
-        self.mixer.set_limits(channel, limits)
-        if self._playback is None or self._playback.channels < self.mixer.channels:
-            self._open()
-        self.users.add(channel)  # only once it plays: a refused channel is not held
-        if self._watchdog is None:
-            self._watchdog = threading.Thread(target=self._watch, name="hapticfx-soundcard-queue", daemon=True)
-            self._watchdog.start()
+    def _open_channels(self) -> int:
+        return 0 if self._playback is None else self._playback.channels
 
     def _open(self) -> None:
         """(Re)connect; :class:`DeviceError` if the server or the sink refuses."""
@@ -191,24 +139,6 @@ class QueueStream:
 
     # --- outages --------------------------------------------------------------------
 
-    def _lose(self, why: str) -> None:
-        with self._state:
-            if self.outage is not None:
-                return
-            cut = self.mixer.clear()
-            self.lost += cut
-            self.outage = why
-            self._outage_since = time.monotonic()
-            self.outages += 1
-        log.warning("%s unavailable: %s; %d impact(s) cut off; reconnecting", self.name, why, cut)
-
-    def _back(self, how: str) -> None:
-        with self._state:
-            down = time.monotonic() - self._outage_since
-            self.outage = None
-        self.downtime_s.append(down)
-        log.warning("%s is back after %.2f s (%s)", self.name, down, how)
-
     def _watch(self) -> None:
         period = min(0.05, self.watchdog_s / 4)
         told = 0
@@ -224,26 +154,10 @@ class QueueStream:
                 if silent > self.watchdog_s:
                     self._lose(f"no request for audio for {silent:.2f} s (sound server stalled)")
                 continue
-            if self._playback is not None and not self._playback.failed:
-                if silent < 2 * period:
-                    self._back("the stream resumed")
-                continue
-            if now - self._last_attempt < RETRY_S:
-                continue
-            self._last_attempt = now
-            try:
-                self._open()
-            except DeviceError:
-                continue
-            self._back("stream reopened")
+            playback = self._playback
+            self._come_back(now, alive=playback is not None and not playback.failed, silent_s=silent, period_s=period)
 
     # --- caller side ----------------------------------------------------------------
-
-    def check(self) -> None:
-        """Raise :class:`DeviceError` while the server is unavailable."""
-        why = self.outage
-        if why is not None:
-            raise DeviceError(f"{self.name} unavailable: {why}; reconnecting")
 
     def play(self, channel: int, samples: np.ndarray) -> None:
         playback = self._playback
@@ -267,13 +181,7 @@ class QueueStream:
 
     def drain(self, timeout_s: float | None) -> None:
         """Wait until every queued impact has been played (its lead included)."""
-        deadline = None if timeout_s is None else time.monotonic() + timeout_s
-        while self.mixer.busy:
-            self.check()
-            if deadline is not None and time.monotonic() > deadline:
-                raise DeviceError(f"{self.name} did not finish playing within {timeout_s:g} s")
-            time.sleep(0.005)
-        self.check()
+        self._wait_quiet(timeout_s)
 
     @property
     def output_latency_s(self) -> float:

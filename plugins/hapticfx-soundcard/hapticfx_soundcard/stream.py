@@ -21,10 +21,7 @@ its wake-up watermark after an underrun).
 
 from __future__ import annotations
 
-import gc
 import logging
-import os
-import sys
 import threading
 import time
 from collections import deque
@@ -37,38 +34,16 @@ from hapticfx.ratelog import RateLimitedLog
 from .devices import OutputDevice, import_sounddevice
 from .mixer import Mixer
 from .noise import FILTER
+from .shared import SharedStream, Streams
 
 log = logging.getLogger(__name__)
 
-RETRY_S = 0.2  # between attempts to reopen a stream that stopped
 START_S = 0.25  # an underflow this soon after a stream starts is its start (seen at +15 ms), not a gap in the sound
 UNDERFLOW_LOG_S = 10.0  # at most one underflow warning per stream in this time
-SWITCH_INTERVAL_S = 0.001
 GROW_WAIT_S = 1.0  # a longer buffer waits this long at most for silence before it is switched in
 GROW_MARGIN = 1.5  # a lengthened buffer holds this many times the longest wait between callbacks
-GC_FREEZE_ENV = "HAPTICFX_GC_FREEZE"  # "0": leave the garbage collector as it is
 
-_streams: dict[int, "DeviceStream"] = {}
-_streams_lock = threading.Lock()
-
-
-def keep_the_gil_moving() -> None:
-    """Keep the GIL from being held long while streams run (process-wide, idempotent).
-
-    The audio callback is Python: it needs the GIL within a block's period (and an impact
-    written over a queue needs it to be written on time). By default a thread doing Python
-    work keeps the GIL 5 ms before it must hand it over; 1 ms keeps blocks on time. And a
-    full garbage collection holds the GIL while it walks every tracked object (11-19 ms in
-    ``hapticfx bench output``, longer than the 8.7 ms 'low' buffer: an underflow). So, once
-    per process, the objects alive when the first stream opens (modules, classes, loaded
-    effects) are moved out of the collector's reach (``gc.freeze``); later passes walk only
-    what was made since. ``HAPTICFX_GC_FREEZE=0`` leaves the collector alone.
-    """
-    sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
-    if gc.get_freeze_count() or os.environ.get(GC_FREEZE_ENV) == "0":
-        return
-    gc.collect()  # what is garbage now is freed, not frozen
-    gc.freeze()
+_streams = Streams()  # by PortAudio device index
 
 
 def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: SafetyLimits,
@@ -79,41 +54,16 @@ def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: Safet
     The first actuator on a device sets the stream's latency (and the longest it may grow to), block size
     and voice count.
     """
-    with _streams_lock:
-        stream = _streams.get(device.index)
-        if stream is None:
-            keep_the_gil_moving()
-            stream = DeviceStream(device, rate_hz, latency=latency, max_latency=max_latency, blocksize=blocksize,
-                                  max_voices=max_voices, watchdog_s=watchdog_s)
-            _streams[device.index] = stream
-        elif stream.rate_hz != rate_hz:
-            raise DeviceError(
-                f"sound output {device.name!r} already streams at {stream.rate_hz:g} Hz for another actuator; "
-                f"give both the same rate_hz"
-            )
-        try:
-            stream.reserve(channel, limits)
-        except DeviceError:
-            if not stream.users:
-                stream.shutdown()
-                _streams.pop(device.index, None)
-            raise
-        return stream
+    def make():
+        return DeviceStream(device, rate_hz, latency=latency, max_latency=max_latency, blocksize=blocksize,
+                            max_voices=max_voices, watchdog_s=watchdog_s)
+
+    return _streams.acquire(device.index, make, channel=channel, rate_hz=rate_hz, limits=limits)
 
 
 def release(stream: "DeviceStream", channel: int, *, drain_timeout_s: float) -> None:
     """Give ``channel`` back; the last actuator on a device closes its stream after draining it."""
-    with _streams_lock:
-        stream.users.discard(channel)
-        last = not stream.users
-        if last and _streams.get(stream.device.index) is stream:
-            del _streams[stream.device.index]
-    if last:
-        try:
-            if stream.outage is None:
-                stream.drain(drain_timeout_s)
-        finally:
-            stream.shutdown()
+    _streams.release(stream.device.index, stream, channel, drain_timeout_s=drain_timeout_s)
 
 
 def _abort(stream, *, wait_s: float) -> bool:
@@ -141,13 +91,14 @@ def _abort(stream, *, wait_s: float) -> bool:
     return True
 
 
-class DeviceStream:
+class DeviceStream(SharedStream):
     """A running output stream on one device, mixing impacts on its channels, reopened after an outage."""
 
     def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, max_latency: float,
                  blocksize: int, max_voices: int, watchdog_s: float):
+        super().__init__(f"sound output {device.name!r}", Mixer(min(2, device.channels), rate_hz,
+                                                                 max_voices=max_voices), rate_hz)
         self.device = device
-        self.rate_hz = float(rate_hz)
         self.latency = latency
         self.max_latency_s = max_latency  # the buffer may be lengthened up to this after underflows (0: never)
         self.buffer_changes: list[tuple[float, float, float]] = []  # (time.monotonic(), from_s, to_s)
@@ -155,8 +106,6 @@ class DeviceStream:
         self._grow_since = 0.0
         self.blocksize = blocksize
         self.watchdog_s = watchdog_s
-        self.mixer = Mixer(min(2, device.channels), self.rate_hz, max_voices=max_voices)
-        self.users: set[int] = set()
         self.underflows = 0
         self.underflow_times: deque[float] = deque(maxlen=1024)  # time.monotonic() of the latest ones
         # (time.monotonic(), gap) of the latest callbacks that came longer than the buffer after the one before:
@@ -167,38 +116,23 @@ class DeviceStream:
         self._underflows_told = 0
         self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
         self._started = 0.0
-        self.outage: str | None = None  # why the device cannot play now
-        self.outages = 0
-        self.lost = 0  # impacts cut off by an outage
-        self.downtime_s: list[float] = []  # how long each outage lasted, once over
-        self._outage_since = 0.0
-        self._last_attempt = 0.0
         self._last_callback = time.monotonic()
         self._generation = 0  # callbacks of a stream this one replaced are ignored
         self._stream = None
-        self._state = threading.Lock()
         self._stop = threading.Event()
-        self._watchdog: threading.Thread | None = None
         self._filtering = False
 
     # --- lifetime -------------------------------------------------------------------
 
-    def reserve(self, channel: int, limits: SafetyLimits) -> None:
-        if channel in self.users:
-            raise DeviceError(f"channel {channel} of {self.device.name!r} is already used by another actuator")
+    def _check_channel(self, channel: int) -> None:
         if channel >= self.device.channels:
             raise DeviceError(
                 f"sound output {self.device.name!r} has {self.device.channels} channel(s); "
                 f"channel {channel} does not exist (channels count from 0)"
             )
-        self.mixer.widen(channel + 1)
-        self.mixer.set_limits(channel, limits)
-        if self._stream is None or self._stream.channels < self.mixer.channels:
-            self._open()
-        self.users.add(channel)  # only once it plays: a refused channel is not held
-        if self._watchdog is None:
-            self._watchdog = threading.Thread(target=self._watch, name="hapticfx-soundcard-watchdog", daemon=True)
-            self._watchdog.start()
+
+    def _open_channels(self) -> int:
+        return 0 if self._stream is None else self._stream.channels
 
     def _open(self) -> None:
         """(Re)open the stream; DeviceError if the device refuses."""
@@ -261,26 +195,9 @@ class DeviceStream:
 
     # --- outages --------------------------------------------------------------------
 
-    def _lose(self, why: str) -> None:
-        with self._state:  # with play(): every impact is either cut here (and counted) or refused
-            if self.outage is not None:
-                return
-            cut = self.mixer.clear()
-            self.lost += cut
-            self.outage = why
-            self._outage_since = time.monotonic()
-            self.outages += 1
-        log.warning("sound output %r unavailable: %s; %d impact(s) cut off; reconnecting",
-                    self.device.name, why, cut)
-
-    def _back(self, how: str) -> None:
-        with self._state:
-            down = time.monotonic() - self._outage_since
-            self.outage = None
-            # the underflows of the return are the outage's, told already: the stream starts again
-            self._started = time.monotonic()
-        self.downtime_s.append(down)
-        log.warning("sound output %r is back after %.2f s (%s)", self.device.name, down, how)
+    def _resumed(self) -> None:
+        # the underflows of the return are the outage's, told already: the stream starts again
+        self._started = time.monotonic()
 
     def _tell_underflows(self, now: float) -> None:
         """Warn (at a bounded rate) of underflows since the last look, other than a stream's start,
@@ -335,26 +252,9 @@ class DeviceStream:
                     self._grow(now)
                 continue
             stream = self._stream
-            if stream is not None and stream.active:
-                if silent < 2 * period:  # the stall is over: the stream goes on as it was
-                    self._back("the stream resumed")
-                continue  # still stalled; if the server dies meanwhile, the finished callback says so
-            if now - self._last_attempt < RETRY_S:
-                continue
-            self._last_attempt = now
-            try:
-                self._open()
-            except DeviceError:
-                continue
-            self._back("stream reopened")
+            self._come_back(now, alive=stream is not None and stream.active, silent_s=silent, period_s=period)
 
     # --- caller side ----------------------------------------------------------------
-
-    def check(self) -> None:
-        """Raise :class:`DeviceError` while the device is unavailable."""
-        why = self.outage
-        if why is not None:
-            raise DeviceError(f"sound output {self.device.name!r} unavailable: {why}; reconnecting")
 
     def play(self, channel: int, samples: np.ndarray) -> None:
         with self._state:
@@ -363,13 +263,7 @@ class DeviceStream:
 
     def drain(self, timeout_s: float | None) -> None:
         """Wait until every queued impact has left the device (its output latency included)."""
-        deadline = None if timeout_s is None else time.monotonic() + timeout_s
-        while self.mixer.busy:
-            self.check()
-            if deadline is not None and time.monotonic() > deadline:
-                raise DeviceError(f"sound output {self.device.name!r} did not finish playing within {timeout_s:g} s")
-            time.sleep(0.005)
-        self.check()
+        self._wait_quiet(timeout_s)
         stream = self._stream
         if stream is not None:
             time.sleep(float(stream.latency) + 2 * max(stream.blocksize, 256) / self.rate_hz)

@@ -1,0 +1,202 @@
+"""What the two kinds of sound-card stream share: one running stream per output, reserved
+channel by channel, and outages: what sounded is counted as lost, ``play`` is refused
+meanwhile, and the stream comes back by itself."""
+
+from __future__ import annotations
+
+import gc
+import logging
+import os
+import sys
+import threading
+import time
+from typing import Callable, Hashable
+
+from hapticfx.errors import DeviceError
+from hapticfx.interfaces import SafetyLimits
+
+log = logging.getLogger(__name__)
+
+RETRY_S = 0.2  # between attempts to reopen a stream that stopped
+SWITCH_INTERVAL_S = 0.001
+GC_FREEZE_ENV = "HAPTICFX_GC_FREEZE"  # "0": leave the garbage collector as it is
+
+
+def keep_the_gil_moving() -> None:
+    """Keep the GIL from being held long while streams run (process-wide, idempotent).
+
+    The audio callback is Python: it needs the GIL within a block's period (and an impact
+    written over a queue needs it to be written on time). By default a thread doing Python
+    work keeps the GIL 5 ms before it must hand it over; 1 ms keeps blocks on time. And a
+    full garbage collection holds the GIL while it walks every tracked object (11-19 ms in
+    ``hapticfx bench output``, longer than the 8.7 ms 'low' buffer: an underflow). So, once
+    per process, the objects alive when the first stream opens (modules, classes, loaded
+    effects) are moved out of the collector's reach (``gc.freeze``); later passes walk only
+    what was made since. ``HAPTICFX_GC_FREEZE=0`` leaves the collector alone.
+    """
+    sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
+    if gc.get_freeze_count() or os.environ.get(GC_FREEZE_ENV) == "0":
+        return
+    gc.collect()  # what is garbage now is freed, not frozen
+    gc.freeze()
+
+
+class SharedStream:
+    """A stream shared by the actuators on its channels, its mixer, and its outages.
+
+    Subclasses open the stream in ``reserve`` and call :meth:`_lose` when it fails and
+    :meth:`_back` when it plays again.
+    """
+
+    def __init__(self, name: str, mixer, rate_hz: float):
+        self.name = name  # for messages: "sound output 'default'"
+        self.mixer = mixer
+        self.rate_hz = float(rate_hz)
+        self.users: set[int] = set()
+        self.outage: str | None = None  # why the output cannot play now
+        self.outages = 0
+        self.lost = 0  # impacts cut off by an outage
+        self.downtime_s: list[float] = []  # how long each outage lasted, once over
+        self._outage_since = 0.0
+        self._last_attempt = 0.0
+        self._state = threading.Lock()
+        self._watchdog: threading.Thread | None = None
+
+    def reserve(self, channel: int, limits: SafetyLimits) -> None:
+        """Take ``channel`` for an actuator with these limits; opens the stream (again, wider) as needed."""
+        if channel in self.users:
+            raise DeviceError(f"channel {channel} of {self.name} is already used by another actuator")
+        self._check_channel(channel)
+        self.mixer.widen(channel + 1)
+        self.mixer.set_limits(channel, limits)
+        if self._open_channels() < self.mixer.channels:
+            self._open()
+        self.users.add(channel)  # only once it plays: a refused channel is not held
+        if self._watchdog is None:
+            self._watchdog = threading.Thread(target=self._watch, name=f"hapticfx-soundcard: {self.name}",
+                                              daemon=True)
+            self._watchdog.start()
+
+    def _check_channel(self, channel: int) -> None:
+        """DeviceError if the output has no such channel."""
+
+    def _open_channels(self) -> int:
+        """Channels of the stream as open now (0: not open)."""
+        raise NotImplementedError
+
+    def _open(self) -> None:
+        """(Re)open the stream; DeviceError if the output refuses."""
+        raise NotImplementedError
+
+    def _watch(self) -> None:
+        """The watchdog thread: outages, and the stream's own upkeep."""
+        raise NotImplementedError
+
+    def shutdown(self) -> None:
+        raise NotImplementedError
+
+    def _lose(self, why: str) -> None:
+        with self._state:  # with play(): every impact is either cut here (and counted) or refused
+            if self.outage is not None:
+                return
+            cut = self.mixer.clear()
+            self.lost += cut
+            self.outage = why
+            self._outage_since = time.monotonic()
+            self.outages += 1
+        log.warning("%s unavailable: %s; %d impact(s) cut off; reconnecting", self.name, why, cut)
+
+    def _back(self, how: str) -> None:
+        with self._state:
+            down = time.monotonic() - self._outage_since
+            self.outage = None
+            self._resumed()
+        self.downtime_s.append(down)
+        log.warning("%s is back after %.2f s (%s)", self.name, down, how)
+
+    def _come_back(self, now: float, *, alive: bool, silent_s: float, period_s: float) -> None:
+        """The watchdog's look during an outage: a stream still alive whose output plays again (it
+        was heard from within two periods) is taken back as it is; a stopped one is reopened, every
+        RETRY_S until the output answers."""
+        if alive:
+            if silent_s < 2 * period_s:
+                self._back("the stream resumed")
+            return  # still stalled; if the server dies meanwhile, the stream says so
+        if now - self._last_attempt < RETRY_S:
+            return
+        self._last_attempt = now
+        try:
+            self._open()
+        except DeviceError:
+            return
+        self._back("stream reopened")
+
+    def _resumed(self) -> None:
+        """Called as an outage ends, with the state lock held."""
+
+    def check(self) -> None:
+        """Raise :class:`DeviceError` while the output is unavailable."""
+        why = self.outage
+        if why is not None:
+            raise DeviceError(f"{self.name} unavailable: {why}; reconnecting")
+
+    def _wait_quiet(self, timeout_s: float | None) -> None:
+        """Wait until the mixer has nothing left to play; DeviceError on an outage or the timeout."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while self.mixer.busy:
+            self.check()
+            if deadline is not None and time.monotonic() > deadline:
+                raise DeviceError(f"{self.name} did not finish playing within {timeout_s:g} s")
+            time.sleep(0.005)
+        self.check()
+
+
+class Streams:
+    """The running streams, one per output (``key``), each shared by the actuators on its channels."""
+
+    def __init__(self):
+        self._streams: dict[Hashable, SharedStream] = {}
+        self._lock = threading.Lock()
+
+    def acquire(self, key: Hashable, make: Callable[[], SharedStream], *, channel: int, rate_hz: float,
+                limits: SafetyLimits) -> SharedStream:
+        """The stream of ``key`` with ``channel`` reserved; ``make()`` opens it on first use (the first
+        actuator on an output sets its options)."""
+        with self._lock:
+            stream = self._streams.get(key)
+            if stream is None:
+                keep_the_gil_moving()
+                stream = self._streams[key] = make()
+            elif stream.rate_hz != rate_hz:
+                raise DeviceError(f"{stream.name} already streams at {stream.rate_hz:g} Hz for another actuator; "
+                                  f"give both the same rate_hz")
+            try:
+                stream.reserve(channel, limits)
+            except DeviceError:
+                if not stream.users:
+                    stream.shutdown()
+                    self._streams.pop(key, None)
+                raise
+            return stream
+
+    def release(self, key: Hashable, stream: SharedStream, channel: int, *, drain_timeout_s: float) -> None:
+        """Give ``channel`` back; the last actuator on an output closes its stream after draining it."""
+        with self._lock:
+            stream.users.discard(channel)
+            last = not stream.users
+            if last and self._streams.get(key) is stream:
+                del self._streams[key]
+        if last:
+            try:
+                if stream.outage is None:
+                    stream.drain(drain_timeout_s)
+            finally:
+                stream.shutdown()
+
+    def shutdown_all(self) -> None:
+        """Close every stream (at exit)."""
+        with self._lock:
+            running = list(self._streams.values())
+            self._streams.clear()
+        for stream in running:
+            stream.shutdown()
