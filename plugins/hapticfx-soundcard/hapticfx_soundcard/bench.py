@@ -229,9 +229,10 @@ def block_wall_times(voices: int, block: int, *, rate_hz: float = 48000.0, secon
     return np.array(walls), np.array(adds)
 
 
-def recovery_runs(mode: str, repeats: int, *, script: str,
+def recovery_runs(mode: str, repeats: int, *, script: str, queue: float = 0.0,
                   progress: Callable[[str], None] | None = None) -> list[dict[str, str]]:
-    """Run :mod:`hapticfx_soundcard.faultprobe` ``repeats`` times in ``mode`` against a server of its own."""
+    """Run :mod:`hapticfx_soundcard.faultprobe` ``repeats`` times in ``mode`` against a server of its own,
+    its actuator with ``queue`` (0: the PortAudio stream)."""
     import os
     import subprocess
     import sys
@@ -247,7 +248,7 @@ def recovery_runs(mode: str, repeats: int, *, script: str,
             virtualserver.start(runtime, script)
             try:
                 pid = (Path(runtime) / "pulse" / "pid").read_text().strip()
-                done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid], env=env,
+                done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid, str(queue)], env=env,
                                       capture_output=True, text=True, timeout=120)
             finally:
                 virtualserver.stop(runtime)
@@ -255,5 +256,5 @@ def recovery_runs(mode: str, repeats: int, *, script: str,
         seen["returncode"] = str(done.returncode)
         runs.append(seen)
         if progress:
-            progress(f"  {mode} {i + 1}/{repeats}: back in {seen.get('recovered_s', '?')} s, heard {seen.get('heard', '?')}")
+            progress(f"  {mode}, queue {queue:g} s, {i + 1}/{repeats}: back in {seen.get('recovered_s', '?')} s, heard {seen.get('heard', '?')}")
     return runs

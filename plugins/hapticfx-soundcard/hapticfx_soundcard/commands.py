@@ -251,9 +251,14 @@ def bench_output(
         else:
             typer.echo("| fault | detected (s, median) | back after its return (s): median | max | impacts heard after "
                        "| cut off by the outage |\n|---|---:|---:|---:|---:|---:|")
-            for mode, label in (("stall-resume", "server stopped 1 s, then continued"),
-                                ("restart", "server killed, then started again")):
-                runs = bench.recovery_runs(mode, recoveries, script=str(script), progress=say)
+            from .actuator import AUTO_QUEUE_S
+
+            faults = [(mode, queued, f"{label}; {stream}")
+                      for queued, stream in ((AUTO_QUEUE_S, "queue at the server (the default)"), (0.0, "PortAudio stream"))
+                      for mode, label in (("stall-resume", "server stopped 1 s, then continued"),
+                                          ("restart", "server killed, then started again"))]
+            for mode, queued, label in faults:
+                runs = bench.recovery_runs(mode, recoveries, script=str(script), queue=queued, progress=say)
                 back = [float(r["recovered_s"]) for r in runs if r.get("recovered_s", "never") != "never"]
                 det = [float(r["detected_s"]) for r in runs if r.get("detected_s", "never") != "never"]
                 heard = sum(int(r.get("heard", 0)) for r in runs)

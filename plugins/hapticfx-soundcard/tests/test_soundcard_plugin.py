@@ -65,14 +65,15 @@ def test_hapticfx_play_uses_the_default_sound_device(soundserver):
 
 @pytest.mark.soundserver
 def test_bench_output_times_every_path_against_its_floor(soundserver):
-    """A short run of the benchmark: every path heard, its rows and the capacity table printed."""
+    """A short run of the benchmark: every path heard through the shipped default (the queue at the
+    server), its rows, the capacity table, and a recovery of each stream from each fault."""
     import os
     from pathlib import Path
 
     repo = Path(__file__).resolve().parents[3]
     done = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "output", "effects/falling_brick_kinetic.yaml",
                            "effects/falling_brick.yaml", "-n", "3", "--gap", "0.3", "--seconds", "0.1",
-                           "--voices", "1000", "--recoveries", "0", "--round-trips", "5"], cwd=repo,
+                           "--voices", "1000", "--recoveries", "1", "--round-trips", "5"], cwd=repo,
                           env={**os.environ, "XDG_RUNTIME_DIR": soundserver}, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     rows = {line.split(" | ")[0].strip("| "): line for line in done.stdout.splitlines() if line.startswith("| ")}
@@ -84,6 +85,11 @@ def test_bench_output_times_every_path_against_its_floor(soundserver):
     assert "Machine stalls over the same" in done.stdout  # the underflows' floor, measured in the same run
     assert "the recording's own overflows: " in done.stdout
     assert "Audio callbacks that came longer than the buffer after the one before" in done.stdout
+    assert "### queue 150 ms at the server, impacts written 10 ms ahead of playback" in done.stdout
+    for stream in ("queue at the server (the default)", "PortAudio stream"):
+        for fault in ("server stopped 1 s, then continued", "server killed, then started again"):
+            cells = rows[f"{fault}; {stream}"].strip("| ").split(" | ")
+            assert cells[4].startswith("1/1 "), rows[f"{fault}; {stream}"]  # heard after it came back
 
 
 def test_bench_output_sets_each_send_against_the_floor_at_the_same_buffer():
