@@ -24,6 +24,7 @@ from hapticfx.signal import Signal
 from . import queuestream
 from . import stream as streams
 from .devices import negotiate_rate, resolve_device
+from .shared import SharedStream
 
 log = logging.getLogger(__name__)
 # queue: auto. A 100 ms queue ran dry once, 18 ms after the machine paused for 75.5 ms (docs/benchmarks.md).
@@ -89,7 +90,7 @@ class SoundCardActuator(Actuator):
             raise EffectError(f"ahead ({self.params.ahead:g} s) must be shorter than queue ({queue:g} s)",
                               source=context.source, key="actuator.ahead")
         self.note: str | None = None
-        self._stream: streams.DeviceStream | queuestream.QueueStream | None = None
+        self._stream: SharedStream | None = None
 
     def open(self) -> None:
         if self._stream is not None:
@@ -120,10 +121,9 @@ class SoundCardActuator(Actuator):
     @property
     def queue_s(self) -> float:
         """Seconds queued at the PulseAudio server, impacts written over them; 0: a PortAudio stream."""
-        stream = self._require_stream()
-        return stream.queue_s if isinstance(stream, queuestream.QueueStream) else 0.0
+        return self._require_stream().queue_s
 
-    def _require_stream(self) -> streams.DeviceStream | queuestream.QueueStream:
+    def _require_stream(self) -> SharedStream:
         if self._stream is None:
             raise DeviceError(f"{self.name} is not open; use it as a context manager or call open()")
         return self._stream
@@ -151,10 +151,8 @@ class SoundCardActuator(Actuator):
 
     def close(self) -> None:
         stream, self._stream = self._stream, None
-        if isinstance(stream, queuestream.QueueStream):
-            queuestream.release(stream, self.channel, drain_timeout_s=10.0)
-        elif stream is not None:
-            streams.release(stream, self.channel, drain_timeout_s=10.0)
+        if stream is not None:
+            stream.release(self.channel, drain_timeout_s=10.0)
 
     def losses(self) -> dict[str, int]:
         """Impacts taken but not played in full: not mixed in because ``max_impacts`` were sounding
@@ -164,7 +162,7 @@ class SoundCardActuator(Actuator):
         if stream is None:
             return {}
         counts = {"voice_cap": stream.mixer.refused, "truncated": stream.mixer.truncated, "outage": stream.lost,
-                  "late": stream.late if isinstance(stream, queuestream.QueueStream) else 0}
+                  "late": stream.late}
         return {k: v for k, v in counts.items() if v}
 
     @property
@@ -201,9 +199,8 @@ class SoundCardActuator(Actuator):
 
     def describe(self) -> str:
         where = "default device" if self.device_request in (None, "default") else f"device {self.device_request!r}"
-        stream = self._stream
-        how = (f", a {stream.queue_s * 1e3:g} ms queue at the PulseAudio server"
-               if isinstance(stream, queuestream.QueueStream) else "")
+        queued = self._stream.queue_s if self._stream is not None else 0.0
+        how = f", a {queued * 1e3:g} ms queue at the PulseAudio server" if queued else ""
         return f"{self.name} on {where}, channel {self.channel}, {self.spec.rate_hz:g} Hz{how}"
 
 

@@ -7,7 +7,8 @@ This stream keeps ``queue`` seconds queued at the server, so a stall shorter
 than that leaves the sound unbroken, and writes each new impact over the queued
 audio ``ahead`` seconds before the frame being heard (libpulse's absolute seek):
 its latency is ``ahead``, not ``queue``. The queue is refilled on libpulse's
-thread, which needs the GIL only once it is well behind.
+thread every few milliseconds; that callback is Python too, but it has until the
+queue runs dry to get the GIL, not a block's period.
 
 Every impact goes through the channel's safety limiter: the mixer limits the
 queued audio again from the impact's start, from the limiters' state there
@@ -25,19 +26,15 @@ from __future__ import annotations
 
 import atexit
 import logging
-import threading
 import time
-from collections import deque
 
 import numpy as np
 from hapticfx.errors import DeviceError
 from hapticfx.interfaces import SafetyLimits
-from hapticfx.ratelog import RateLimitedLog
 
 from .libpulse import Playback
 from .mixer import QueueMixer
 from .shared import SharedStream, Streams
-from .stream import UNDERFLOW_LOG_S
 
 log = logging.getLogger(__name__)
 
@@ -59,11 +56,6 @@ def acquire(sink: str | None, *, channel: int, rate_hz: float, limits: SafetyLim
     return _streams.acquire(sink or "", make, channel=channel, rate_hz=rate_hz, limits=limits)
 
 
-def release(stream: "QueueStream", channel: int, *, drain_timeout_s: float) -> None:
-    """Give ``channel`` back; the last actuator on a sink closes its stream after draining it."""
-    _streams.release(stream.sink or "", stream, channel, drain_timeout_s=drain_timeout_s)
-
-
 class QueueStream(SharedStream):
     """A PulseAudio playback stream holding ``queue_s`` of audio, new impacts written ``ahead_s`` before
     playback, shared by the actuators on its channels and reconnected after an outage."""
@@ -74,22 +66,14 @@ class QueueStream(SharedStream):
             raise DeviceError(f"a queue of {queue_s:g} s cannot take impacts {ahead_s:g} s ahead of playback; "
                               "give queue more than ahead")
         super().__init__(f"PulseAudio sink {sink!r}" if sink else "the PulseAudio default sink",
-                         QueueMixer(CHANNELS, rate_hz, max_voices=max_voices), rate_hz)
+                         QueueMixer(CHANNELS, rate_hz, max_voices=max_voices), rate_hz, watchdog_s=watchdog_s)
         self.sink = sink
         self.queue_s, self.ahead_s = float(queue_s), float(ahead_s)
         self._ahead = int(round(ahead_s * self.rate_hz))
-        self.watchdog_s = watchdog_s
-        self.underflows = 0
-        self.underflow_times: deque[float] = deque(maxlen=1024)
-        # (time.monotonic(), gap) of the server's requests for audio that came so long after the one before
-        # that the queue had less than `ahead` left: nearly dry.
-        self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
         self.buffer_changes: list[tuple[float, float, float]] = []  # the queue is never lengthened
         self.late = 0  # impacts whose first frame the server had read before their write came
-        self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
         self._last_request = time.monotonic()
         self._playback: Playback | None = None
-        self._stop = threading.Event()
 
     # --- lifetime -------------------------------------------------------------------
 
@@ -125,7 +109,7 @@ class QueueStream(SharedStream):
     def _request(self, playback: Playback, frames: int) -> None:
         now = time.monotonic()
         gap, self._last_request = now - self._last_request, now
-        if gap > self.queue_s - self.ahead_s:
+        if gap > self.queue_s - self.ahead_s:  # less than `ahead` was left queued: nearly dry
             self.late_callbacks.append((now, gap))
         if frames <= 0:
             return

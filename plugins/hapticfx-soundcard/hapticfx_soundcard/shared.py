@@ -10,14 +10,18 @@ import os
 import sys
 import threading
 import time
+from abc import ABC, abstractmethod
+from collections import deque
 from typing import Callable, Hashable
 
 from hapticfx.errors import DeviceError
 from hapticfx.interfaces import SafetyLimits
+from hapticfx.ratelog import RateLimitedLog
 
 log = logging.getLogger(__name__)
 
 RETRY_S = 0.2  # between attempts to reopen a stream that stopped
+UNDERFLOW_LOG_S = 10.0  # at most one underflow warning per stream in this time
 SWITCH_INTERVAL_S = 0.001
 GC_FREEZE_ENV = "HAPTICFX_GC_FREEZE"  # "0": leave the garbage collector as it is
 
@@ -41,18 +45,30 @@ def keep_the_gil_moving() -> None:
     gc.freeze()
 
 
-class SharedStream:
-    """A stream shared by the actuators on its channels, its mixer, and its outages.
+class SharedStream(ABC):
+    """A stream shared by the actuators on its channels, its mixer, its underflows and its outages.
 
-    Subclasses open the stream in ``reserve`` and call :meth:`_lose` when it fails and
-    :meth:`_back` when it plays again.
+    Subclasses open the stream (:meth:`_open`), watch it (:meth:`_watch`, on a thread of its
+    own), and call :meth:`_lose` when it fails and :meth:`_back` when it plays again.
     """
 
-    def __init__(self, name: str, mixer, rate_hz: float):
+    queue_s = 0.0  # seconds queued at the server that impacts are written over (0: none)
+    late = 0  # impacts written over a queue after the server had read their first frame
+
+    def __init__(self, name: str, mixer, rate_hz: float, *, watchdog_s: float):
         self.name = name  # for messages: "sound output 'default'"
         self.mixer = mixer
         self.rate_hz = float(rate_hz)
+        self.watchdog_s = watchdog_s
+        self.home: Streams | None = None  # the registry that opened it
         self.users: set[int] = set()
+        self.underflows = 0
+        self.underflow_times: deque[float] = deque(maxlen=1024)  # time.monotonic() of the latest ones
+        # (time.monotonic(), gap) of the latest waits for the stream's feeder that were longer than it holds:
+        # the stream went unfed that long, whether or not an underflow was reported.
+        self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
+        self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
+        self._stop = threading.Event()
         self.outage: str | None = None  # why the output cannot play now
         self.outages = 0
         self.lost = 0  # impacts cut off by an outage
@@ -77,23 +93,36 @@ class SharedStream:
                                               daemon=True)
             self._watchdog.start()
 
+    def release(self, channel: int, *, drain_timeout_s: float) -> None:
+        """Give ``channel`` back; the last actuator on the output closes the stream after draining it."""
+        self.home.release(self, channel, drain_timeout_s=drain_timeout_s)
+
     def _check_channel(self, channel: int) -> None:
         """DeviceError if the output has no such channel."""
 
+    @abstractmethod
     def _open_channels(self) -> int:
         """Channels of the stream as open now (0: not open)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _open(self) -> None:
         """(Re)open the stream; DeviceError if the output refuses."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _watch(self) -> None:
         """The watchdog thread: outages, and the stream's own upkeep."""
-        raise NotImplementedError
 
+    @abstractmethod
     def shutdown(self) -> None:
-        raise NotImplementedError
+        """Stop the stream and its watchdog (does not wait for what is queued)."""
+
+    @abstractmethod
+    def play(self, channel: int, samples) -> None:
+        """Mix one impact into ``channel``; returns at once; DeviceError during an outage."""
+
+    @abstractmethod
+    def drain(self, timeout_s: float | None) -> None:
+        """Wait until every queued impact has been heard; DeviceError on an outage or the timeout."""
 
     def _lose(self, why: str) -> None:
         with self._state:  # with play(): every impact is either cut here (and counted) or refused
@@ -167,6 +196,7 @@ class Streams:
             if stream is None:
                 keep_the_gil_moving()
                 stream = self._streams[key] = make()
+                stream.home = self
             elif stream.rate_hz != rate_hz:
                 raise DeviceError(f"{stream.name} already streams at {stream.rate_hz:g} Hz for another actuator; "
                                   f"give both the same rate_hz")
@@ -179,13 +209,13 @@ class Streams:
                 raise
             return stream
 
-    def release(self, key: Hashable, stream: SharedStream, channel: int, *, drain_timeout_s: float) -> None:
+    def release(self, stream: SharedStream, channel: int, *, drain_timeout_s: float) -> None:
         """Give ``channel`` back; the last actuator on an output closes its stream after draining it."""
         with self._lock:
             stream.users.discard(channel)
             last = not stream.users
-            if last and self._streams.get(key) is stream:
-                del self._streams[key]
+            if last:
+                self._streams = {k: s for k, s in self._streams.items() if s is not stream}
         if last:
             try:
                 if stream.outage is None:

@@ -24,12 +24,10 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections import deque
 
 import numpy as np
 from hapticfx.errors import DeviceError
 from hapticfx.interfaces import SafetyLimits
-from hapticfx.ratelog import RateLimitedLog
 
 from .devices import OutputDevice, import_sounddevice
 from .mixer import Mixer
@@ -39,7 +37,6 @@ from .shared import SharedStream, Streams
 log = logging.getLogger(__name__)
 
 START_S = 0.25  # an underflow this soon after a stream starts is its start (seen at +15 ms), not a gap in the sound
-UNDERFLOW_LOG_S = 10.0  # at most one underflow warning per stream in this time
 GROW_WAIT_S = 1.0  # a longer buffer waits this long at most for silence before it is switched in
 GROW_MARGIN = 1.5  # a lengthened buffer holds this many times the longest wait between callbacks
 
@@ -59,11 +56,6 @@ def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: Safet
                             max_voices=max_voices, watchdog_s=watchdog_s)
 
     return _streams.acquire(device.index, make, channel=channel, rate_hz=rate_hz, limits=limits)
-
-
-def release(stream: "DeviceStream", channel: int, *, drain_timeout_s: float) -> None:
-    """Give ``channel`` back; the last actuator on a device closes its stream after draining it."""
-    _streams.release(stream.device.index, stream, channel, drain_timeout_s=drain_timeout_s)
 
 
 def _abort(stream, *, wait_s: float) -> bool:
@@ -97,7 +89,8 @@ class DeviceStream(SharedStream):
     def __init__(self, device: OutputDevice, rate_hz: float, *, latency: str | float, max_latency: float,
                  blocksize: int, max_voices: int, watchdog_s: float):
         super().__init__(f"sound output {device.name!r}", Mixer(min(2, device.channels), rate_hz,
-                                                                 max_voices=max_voices), rate_hz)
+                                                                 max_voices=max_voices), rate_hz,
+                         watchdog_s=watchdog_s)
         self.device = device
         self.latency = latency
         self.max_latency_s = max_latency  # the buffer may be lengthened up to this after underflows (0: never)
@@ -105,21 +98,13 @@ class DeviceStream(SharedStream):
         self._grow_to = 0.0  # a longer buffer waiting for silence to be switched in (0: none)
         self._grow_since = 0.0
         self.blocksize = blocksize
-        self.watchdog_s = watchdog_s
-        self.underflows = 0
-        self.underflow_times: deque[float] = deque(maxlen=1024)  # time.monotonic() of the latest ones
-        # (time.monotonic(), gap) of the latest callbacks that came longer than the buffer after the one before:
-        # the stream went unfed for longer than its buffer holds, whether or not PortAudio reports an underflow.
-        self.late_callbacks: deque[tuple[float, float]] = deque(maxlen=1024)
         self._buffer_s = float("nan")  # as PortAudio reported it when the stream last opened
         self._longest_gap_s = 0.0  # since the last underflow warning: how long a buffer would have held
         self._underflows_told = 0
-        self._underflow_log = RateLimitedLog(log, interval_s=UNDERFLOW_LOG_S)
         self._started = 0.0
         self._last_callback = time.monotonic()
         self._generation = 0  # callbacks of a stream this one replaced are ignored
         self._stream = None
-        self._stop = threading.Event()
         self._filtering = False
 
     # --- lifetime -------------------------------------------------------------------
