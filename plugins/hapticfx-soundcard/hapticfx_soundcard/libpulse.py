@@ -72,7 +72,6 @@ _PROTOTYPES = [
     ("pa_stream_write", C.c_int, [_P, _P, C.c_size_t, _P, C.c_int64, C.c_int]),
     ("pa_stream_get_time", C.c_int, [_P, C.POINTER(C.c_uint64)]),
     ("pa_stream_get_timing_info", C.POINTER(_TimingInfo), [_P]),
-    ("pa_stream_get_buffer_attr", C.POINTER(_BufferAttr), [_P]),
     ("pa_stream_update_timing_info", _P, [_P, _P, _P]), ("pa_operation_unref", None, [_P]),
 ]
 _lib = None
@@ -139,8 +138,7 @@ class Playback:
         try:
             while (state := state_of()) != ready:
                 if state in failed or deadline.is_set():
-                    err = pa.pa_strerror(pa.pa_context_errno(self._context)).decode()
-                    raise DeviceError(f"{what}: {err if state in failed else f'no answer in {_CONNECT_S:g} s'}")
+                    raise DeviceError(f"{what}: {self._error() if state in failed else f'no answer in {_CONNECT_S:g} s'}")
                 pa.pa_threaded_mainloop_wait(self._loop)
         finally:
             timer.cancel()
@@ -150,8 +148,7 @@ class Playback:
         self._context = pa.pa_context_new(pa.pa_threaded_mainloop_get_api(self._loop), name)
         pa.pa_context_set_state_callback(self._context, self._callbacks[0], None)
         if pa.pa_context_connect(self._context, None, _CONTEXT_NOAUTOSPAWN, None) < 0:
-            raise DeviceError("cannot reach a PulseAudio server: "
-                              + pa.pa_strerror(pa.pa_context_errno(self._context)).decode())
+            raise DeviceError(f"cannot reach a PulseAudio server: {self._error()}")
         self._wait_for(lambda: pa.pa_context_get_state(self._context), CONTEXT_READY,
                        (CONTEXT_FAILED, CONTEXT_TERMINATED), "cannot reach a PulseAudio server")
         spec = _SampleSpec(_FLOAT32LE, self.rate_hz, self.channels)
@@ -165,13 +162,14 @@ class Playback:
         where = f"sink {sink!r}" if sink else "the default sink"
         if pa.pa_stream_connect_playback(self._stream, sink.encode() if sink else None, C.byref(attr),
                                          _STREAM_FLAGS, None, None) < 0:
-            raise DeviceError(f"cannot play on {where}: " + pa.pa_strerror(pa.pa_context_errno(self._context)).decode())
+            raise DeviceError(f"cannot play on {where}: {self._error()}")
         self._wait_for(lambda: pa.pa_stream_get_state(self._stream), STREAM_READY,
                        (STREAM_FAILED, STREAM_TERMINATED),
                        f"cannot play on {where} (`pactl list short sinks` lists the sinks)")
-        a = pa.pa_stream_get_buffer_attr(self._stream).contents
-        self.queue_frames = a.tlength // fb
-        self.request_frames = a.minreq // fb
+
+    def _error(self) -> str:
+        """libpulse's last error on the connection, in words."""
+        return self._pa.pa_strerror(self._pa.pa_context_errno(self._context)).decode()
 
     def _time_out(self, deadline: threading.Event) -> None:
         deadline.set()
@@ -206,8 +204,7 @@ class Playback:
         if self._failed or self._stream is None:
             return
         if pa.pa_context_get_state(self._context) in (CONTEXT_FAILED, CONTEXT_TERMINATED):
-            why = "the PulseAudio server closed the connection (" + \
-                  pa.pa_strerror(pa.pa_context_errno(self._context)).decode() + ")"
+            why = f"the PulseAudio server closed the connection ({self._error()})"
         elif pa.pa_stream_get_state(self._stream) in (STREAM_FAILED, STREAM_TERMINATED):
             why = "the PulseAudio server ended the stream (sink removed?)"
         else:
@@ -233,8 +230,7 @@ class Playback:
         """Queue ``block`` (frames x channels, float32, C order) at stream frame ``at``, over what is there."""
         if self._pa.pa_stream_write(self._stream, block.ctypes.data, block.nbytes, None,
                                     at * self.frame_bytes, _SEEK_ABSOLUTE) < 0:
-            raise DeviceError("PulseAudio refused a write: "
-                              + self._pa.pa_strerror(self._pa.pa_context_errno(self._context)).decode())
+            raise DeviceError(f"PulseAudio refused a write: {self._error()}")
 
     def playing_frame(self) -> int:
         """The frame being heard now (the server's timing, interpolated on the system clock)."""
