@@ -7,7 +7,8 @@ again by .ci/soundserver.sh, whose path is in ``HAPTICFX_SOUNDSERVER``). Prints 
 ``key value`` line per observation; exits 0 when it survived. ``recovered_s`` is
 from the server's return (continued, or answering ``pactl info`` again) to the
 first impact the actuator takes again; ``heard`` counts the clicks then recorded
-from the sink's monitor; ``buffer_changes`` how often the stream's buffer was lengthened.
+from the sink's monitor, ``heard_after_s`` (stall-resume) how long after ``play``
+the first began; ``buffer_changes`` how often the stream's buffer was lengthened.
 QUEUE (seconds, default 0) is the actuator's ``queue`` option: the PulseAudio queue instead of PortAudio.
 """
 
@@ -104,10 +105,14 @@ if mode in ("stall-resume", "restart"):
             time.sleep(0.005)
     with LoopbackRecorder(rate) as rec:  # the impact is heard, on the same (or the new) server
         time.sleep(0.2)
+        sent = rec.now()
         act.play(Signal(click(rate), rate))
         time.sleep(0.4)
     x, t = rec.capture.timeline(0)
-    say("heard", len(onsets(x, t)))
+    heard = onsets(x, t)
+    say("heard", len(heard))
+    if mode == "stall-resume":  # on a server just started, the capture's clock is not yet to be trusted
+        say("heard_after_s", f"{heard[0] - sent:.3f}" if len(heard) else "never")
     say("buffer_changes", len(act.buffer_changes))
     if mode == "restart":
         server.wait(timeout=30)  # the script's keep-alive and settle time

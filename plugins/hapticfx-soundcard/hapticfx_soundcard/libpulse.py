@@ -3,6 +3,13 @@
 Only what :mod:`hapticfx_soundcard.queuestream` needs: a float32 stream with a
 chosen queue length, writes at absolute stream positions (over audio already
 queued), the playing position, and the server's read index after a write.
+
+The playing position is worked out here from the server's timing, asked for
+again at every request for audio, rather than taken from libpulse's own
+interpolation (``PA_STREAM_INTERPOLATE_TIMING``): that one only moves forward,
+and after a stall of the server it learns the slope of the server catching up
+and ran ahead of playback by a second and more, so impacts were written that
+much too late.
 PortAudio cannot write over queued audio; libpulse can (``PA_SEEK_ABSOLUTE``).
 Callbacks run on libpulse's own thread with its lock held; every other call
 takes the lock (:meth:`Playback.locked`).
@@ -12,6 +19,7 @@ from __future__ import annotations
 
 import ctypes as C
 import threading
+import time
 from contextlib import contextmanager
 from typing import Callable
 
@@ -24,8 +32,8 @@ STREAM_READY, STREAM_FAILED, STREAM_TERMINATED = 2, 3, 4
 _CONTEXT_NOAUTOSPAWN = 1
 _FLOAT32LE = 5
 _SEEK_ABSOLUTE = 1
-# interpolate timing, update it automatically, ask for data every minreq (not only when the queue runs low)
-_STREAM_FLAGS = 0x0002 | 0x0008 | 0x4000
+# ask for data every minreq (not only when the queue runs low); timing is asked for by hand
+_STREAM_FLAGS = 0x4000
 _CONNECT_S = 5.0
 
 
@@ -70,7 +78,6 @@ _PROTOTYPES = [
     ("pa_stream_get_state", C.c_int, [_P]), ("pa_stream_set_state_callback", None, [_P, _P, _P]),
     ("pa_stream_set_write_callback", None, [_P, _P, _P]), ("pa_stream_set_underflow_callback", None, [_P, _P, _P]),
     ("pa_stream_write", C.c_int, [_P, _P, C.c_size_t, _P, C.c_int64, C.c_int]),
-    ("pa_stream_get_time", C.c_int, [_P, C.POINTER(C.c_uint64)]),
     ("pa_stream_get_timing_info", C.POINTER(_TimingInfo), [_P]),
     ("pa_stream_update_timing_info", _P, [_P, _P, _P]), ("pa_operation_unref", None, [_P]),
 ]
@@ -115,6 +122,7 @@ class Playback:
         self.frame_bytes = 4 * self.channels
         self._on_request, self._on_underflow, self._on_failure = on_request, on_underflow, on_failure
         self._failed = False
+        self._playing = 0  # the latest playing_frame()
         self._guard = threading.RLock()  # a lock taken on a freed main loop would crash the process
         self._landed: list[Callable[[int], None]] = []  # per pending read-index query, in order
         self._callbacks = (_NOTIFY(self._state_changed), _REQUEST(self._request), _NOTIFY(self._underflow),
@@ -213,7 +221,14 @@ class Playback:
         self._on_failure(why)
 
     def _request(self, _stream, nbytes, _userdata):
+        self._refresh()
         self._on_request(self, nbytes // self.frame_bytes)
+
+    def _refresh(self) -> None:
+        """Ask for the server's timing again (the answer updates :meth:`playing_frame`)."""
+        op = self._pa.pa_stream_update_timing_info(self._stream, None, None)
+        if op:
+            self._pa.pa_operation_unref(op)
 
     def _underflow(self, *_):
         self._on_underflow()
@@ -233,11 +248,17 @@ class Playback:
             raise DeviceError(f"PulseAudio refused a write: {self._error()}")
 
     def playing_frame(self) -> int:
-        """The frame being heard now (the server's timing, interpolated on the system clock)."""
-        usec = C.c_uint64()
-        if self._pa.pa_stream_get_time(self._stream, C.byref(usec)) < 0:
-            return 0  # no timing yet: the stream has just started
-        return usec.value * self.rate_hz // 1_000_000
+        """The frame being heard now: the server's read index less what its sink holds, when it last
+        said, moved on by the time since (0 before the first answer)."""
+        info = self._pa.pa_stream_get_timing_info(self._stream)
+        if not info or info.contents.read_index_corrupt:
+            return self._playing
+        ti = info.contents
+        # the timestamp is when the server answered (libpulse's estimate where the clocks differ)
+        since_s = max(0.0, time.time() - (ti.timestamp.sec + ti.timestamp.usec * 1e-6))
+        frames = ti.read_index // self.frame_bytes + int((since_s - ti.sink_usec * 1e-6) * self.rate_hz)
+        self._playing = max(0, frames)
+        return self._playing
 
     def read_index_then(self, done: Callable[[int], None]) -> None:
         """Ask for the server's read index (frames) as it stands after the writes so far; ``done`` gets it."""

@@ -75,6 +75,8 @@ def test_impacts_are_heard_again_once_the_server_is_back(mode, queue, tmp_path):
     assert float(seen["detected_s"]) < 1.0
     assert seen["recovered_s"] != "never"
     assert seen["heard"] == "1"
+    if mode == "stall-resume":  # at the stream's usual latency, not late by what the stall threw off
+        assert float(seen["heard_after_s"]) < 0.05, seen["heard_after_s"]
     assert seen["buffer_changes"] == "0"  # the gap of an outage is not one that a longer buffer would hold
     assert float(seen["close_s"]) < 1.5
     assert quiet(stderr)
