@@ -112,30 +112,50 @@ class SafetyLimiter:
         """``process`` over ``samples`` (1D) cut into consecutive blocks of ``block`` samples, the first
         at ``at_s``: the output, and the :meth:`state` before each block.
 
-        The same as calling ``process`` block by block, and at once where no limit acts anywhere in
-        the run (the usual case; pulse limits always go block by block).
+        The same as calling ``process`` block by block, and in one pass where the RMS limit does not
+        act anywhere in the run (the usual case, even where blocks are peak-limited; pulse limits
+        always go block by block).
         """
         x = valid_signal(samples, name="limiter input", ndim=1)
         starts = range(0, x.size, block)
         with self._lock:
-            keep = self._win - 1
-            if self._max_on_s is None and self._max_duty is None and float(np.max(np.abs(x))) <= self._peak:
-                tail = self._tail
-                if at_s > self._clock_s and keep:
-                    tail = np.concatenate([tail, np.zeros(min(int((at_s - self._clock_s) * self.rate_hz), keep))])[-keep:]
-                joined = np.concatenate([tail, x])
-                if not self._over_budget(joined, slack=1 + 1e-12):  # then no block's own check would act
-                    fixed = dict(self._counts), self._max_reduction
-                    states = [(self._tail, tuple(self._on_history), self._clock_s, *fixed)]
-                    states += [(joined[max(0, tail.size + k - keep):tail.size + k] if keep else np.zeros(0), (),
-                                at_s + k / self.rate_hz, *fixed) for k in starts[1:]]
-                    self._tail = joined[-keep:] if keep else np.zeros(0)
-                    self._clock_s = at_s + x.size / self.rate_hz
-                    return x.copy(), states
+            if self._max_on_s is None and self._max_duty is None and x.size:
+                done = self._blocks_in_one_pass(x, block, starts, at_s)
+                if done is not None:
+                    return done
         states, out = [], np.empty_like(x)
         for k in starts:
             states.append(self.state())
             out[k:k + block] = self.process(x[k:k + block], at_s=at_s + k / self.rate_hz)
+        return out, states
+
+    def _blocks_in_one_pass(self, x: np.ndarray, block: int, starts: range, at_s: float):
+        """``process_blocks`` without a loop over blocks, or None (nothing changed) where the RMS limit
+        would act: each block's peak gain is the one ``process`` would give it, and where no RMS window
+        of the peak-limited run is over its budget, no block's own check would find one either."""
+        keep = self._win - 1
+        peaks = np.maximum.reduceat(np.abs(x), np.asarray(starts))
+        acts = peaks > self._peak
+        gains = np.ones_like(peaks)
+        gains[acts] = self._peak / peaks[acts]
+        out = x * np.repeat(gains, block)[:x.size] if acts.any() else x.copy()
+        np.clip(out, -self._peak, self._peak, out=out)
+        tail = self._tail
+        if at_s > self._clock_s and keep:
+            tail = np.concatenate([tail, np.zeros(min(int((at_s - self._clock_s) * self.rate_hz), keep))])[-keep:]
+        joined = np.concatenate([tail, out])
+        if self._over_budget(joined, slack=1 + 1e-12):
+            return None
+        events = self._counts["peak_events"] + np.concatenate([[0], np.cumsum(acts)])
+        reduction = np.minimum.accumulate(np.concatenate([[self._max_reduction], gains]))
+        states = [(self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction)]
+        states += [(joined[max(0, tail.size + k - keep):tail.size + k] if keep else np.zeros(0), (),
+                    at_s + k / self.rate_hz, {**self._counts, "peak_events": int(events[i])}, float(reduction[i]))
+                   for i, k in enumerate(starts) if i]
+        self._counts["peak_events"] = int(events[-1])
+        self._max_reduction = float(reduction[-1])
+        self._tail = joined[-keep:] if keep else np.zeros(0)
+        self._clock_s = at_s + x.size / self.rate_hz
         return out, states
 
     def state(self) -> tuple:

@@ -138,10 +138,11 @@ def test_a_restored_state_limits_the_same_blocks_the_same_way():
 
 
 @pytest.mark.parametrize("limits", [
-    SafetyLimits(peak=1.0, rms=0.7, rms_window_s=0.05),
+    SafetyLimits(peak=1.0, rms=0.7, rms_window_s=0.05),  # only the peak limit acts (from 1.5)
+    SafetyLimits(peak=1.0, rms=0.3, rms_window_s=0.05),  # the RMS limit acts (from 0.6)
     SafetyLimits(peak=0.8, rms=0.3, rms_window_s=0.05, max_on_s=0.03, max_duty=0.5, duty_window_s=0.2),
 ])
-@pytest.mark.parametrize("amp", [0.2, 0.6, 3.0])  # no limit acts; the RMS limit acts; all act
+@pytest.mark.parametrize("amp", [0.2, 0.6, 1.5, 3.0])
 def test_a_run_of_blocks_at_once_is_the_same_as_block_by_block(limits, amp):
     """What the sound-card queue limits its queued audio with: output, events and the state before
     each block as from process() called block by block, gaps of silence between runs included."""
