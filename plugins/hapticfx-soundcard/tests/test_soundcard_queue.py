@@ -61,6 +61,43 @@ def test_an_impact_written_over_the_queue_continues_what_was_sent_exactly(at, dt
     assert live.report(0).peak_events > 0  # the limiter did act on the bursts
 
 
+@pytest.mark.parametrize("seed, limits", [(0, LIMITS), (1, LIMITS), (2, LIMITS),
+                                           (0, SafetyLimits(peak=1.0, rms=0.3))])  # the RMS limit acts too
+def test_impacts_written_over_a_queue_as_playback_goes_on_match_the_audio_known_all_along(seed, limits):
+    """As the stream runs it: the queue refilled in small requests, playback moving on, impacts
+    landing over several requests already written, on both channels; the server ends up with what
+    one render of every impact, known from the start, gives."""
+    rng = np.random.default_rng(seed)
+    live, known = QueueMixer(2, RATE), QueueMixer(2, RATE)
+    for m in (live, known):
+        m.set_limits(0, limits)
+        m.set_limits(1, limits)
+    held, written, impacts = np.zeros((60000, 2), dtype=np.float32), 0, []
+    while written < 20000:
+        at, audio = live.render(240)  # a 5 ms request
+        held[at:at + audio.shape[0]] = audio
+        written = at + audio.shape[0]
+        live.heard(written - 7200)  # a 150 ms queue
+        for _ in range(rng.poisson(0.7)):
+            x = burst(int(rng.integers(50, 4000)), rng.uniform(0.2, 1.6), int(rng.integers(1 << 30)))
+            channel = int(rng.integers(2))
+            at = written - int(rng.integers(0, 7000))
+            back = live.add_at(channel, x, at)
+            if back is None:  # at the end of what was written: it goes out with the next request
+                start = -(-at // QUANTUM) * QUANTUM
+            else:
+                start, audio = back
+                held[start:start + audio.shape[0]] = audio
+            impacts.append((channel, x, start))
+    assert len(impacts) > 25
+    for channel, x, start in impacts:
+        known.add_at(channel, x, start)
+    _, want = known.render(written)
+    np.testing.assert_array_equal(held[:written], want)
+    assert live.report(0) == known.report(0) and live.report(1) == known.report(1)
+    assert live.report(0).peak_events > 0
+
+
 def test_a_queue_mixer_forgets_what_was_heard_and_counts_voices_until_then():
     m = QueueMixer(2, RATE, max_voices=2)
     m.set_limits(0, LIMITS)
