@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +42,30 @@ class LimiterReport:
             (self.on_time_events, "on-time"), (self.duty_events, "duty-cycle"),
         ) if n]
         return f"safety limiter acted: {', '.join(parts)} (max reduction {self.max_reduction_db:.1f} dB)"
+
+
+class _RunStates(Sequence):
+    """The limiter's state before each block of a run limited in one pass, made when asked for
+    (a queue's run has a hundred blocks, and most of their states are never restored)."""
+
+    def __init__(self, first: tuple, joined: np.ndarray, tail: int, keep: int, at_s: float, block: int,
+                 rate_hz: float, events: np.ndarray, reduction: np.ndarray):
+        self._first, self._joined, self._tail, self._keep = first, joined, tail, keep
+        self._at_s, self._block, self._rate_hz = at_s, block, rate_hz
+        self._events, self._reduction = events, reduction
+
+    def __len__(self) -> int:
+        return self._events.size - 1
+
+    def __getitem__(self, i: int) -> tuple:
+        if not 0 <= i < len(self):
+            raise IndexError(i)
+        if i == 0:
+            return self._first
+        end = self._tail + i * self._block
+        tail = self._joined[max(0, end - self._keep):end] if self._keep else np.zeros(0)
+        counts = {**self._first[3], "peak_events": int(self._events[i])}
+        return tail, (), self._at_s + i * self._block / self._rate_hz, counts, float(self._reduction[i])
 
 
 class SafetyLimiter:
@@ -108,7 +133,7 @@ class SafetyLimiter:
             self._tail = np.concatenate([self._tail, flat])[-keep:] if keep else np.zeros(0)
         return x
 
-    def process_blocks(self, samples, *, block: int, at_s: float) -> tuple[np.ndarray, list[tuple]]:
+    def process_blocks(self, samples, *, block: int, at_s: float) -> tuple[np.ndarray, Sequence[tuple]]:
         """``process`` over ``samples`` (1D) cut into consecutive blocks of ``block`` samples, the first
         at ``at_s``: the output, and the :meth:`state` before each block.
 
@@ -148,10 +173,8 @@ class SafetyLimiter:
             return None
         events = self._counts["peak_events"] + np.concatenate([[0], np.cumsum(acts)])
         reduction = np.minimum.accumulate(np.concatenate([[self._max_reduction], gains]))
-        states = [(self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction)]
-        states += [(joined[max(0, tail.size + k - keep):tail.size + k] if keep else np.zeros(0), (),
-                    at_s + k / self.rate_hz, {**self._counts, "peak_events": int(events[i])}, float(reduction[i]))
-                   for i, k in enumerate(starts) if i]
+        first = (self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction)
+        states = _RunStates(first, joined, tail.size, keep, at_s, block, self.rate_hz, events, reduction)
         self._counts["peak_events"] = int(events[-1])
         self._max_reduction = float(reduction[-1])
         self._tail = joined[-keep:] if keep else np.zeros(0)

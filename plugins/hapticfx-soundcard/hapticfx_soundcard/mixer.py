@@ -13,6 +13,7 @@ refused and counted (``refused``).
 
 from __future__ import annotations
 
+import bisect
 import heapq
 import threading
 
@@ -176,7 +177,8 @@ class QueueMixer(Mixer):
         super().__init__(channels, rate_hz, max_voices=max_voices, ring_s=ring_s)
         self._heard = 0  # frames played: an impact that ends before is over
         self._kept = 0  # the ring is zero before here, and limiter states are kept from here on
-        self._states: dict[int, list] = {}  # quantum start -> each channel's limiter state there
+        # (start, stop, each limiter's states per quantum) of each run limited, tiling _kept.. _clock
+        self._runs: list[tuple[int, int, list]] = []
 
     def _prune(self) -> None:
         while self._ends and self._ends[0] <= self._heard:
@@ -188,8 +190,9 @@ class QueueMixer(Mixer):
         out = np.zeros((stop - start, self.channels), dtype=np.float32)
         limiters = [(ch, lim) for ch, lim in enumerate(self._limiters) if lim is not None]
         if again:
-            for (ch, lim), state in zip(limiters, self._states[start]):
-                lim.restore(state)
+            run_start, _, states = self._runs[bisect.bisect_right(self._runs, start, key=lambda r: r[0]) - 1]
+            for (ch, lim), kept in zip(limiters, states):
+                lim.restore(kept[(start - run_start) // QUANTUM])
         first = start % self._size
         idx = slice(first, first + stop - start) if first + stop - start <= self._size else \
             np.arange(first, first + stop - start) % self._size
@@ -202,8 +205,11 @@ class QueueMixer(Mixer):
             else:  # silence leaves the limiter as it is; its next block counts the gap
                 states = [lim.state()] * len(quanta)
             per_channel.append(states)
-        for i, q in enumerate(quanta):
-            self._states[q] = [states[i] for states in per_channel]
+        while self._runs and self._runs[-1][0] >= start:  # what is limited again replaces what was
+            self._runs.pop()
+        if self._runs and self._runs[-1][1] > start:
+            self._runs[-1] = (self._runs[-1][0], start, self._runs[-1][2])
+        self._runs.append((start, stop, per_channel))
         return out
 
     def render(self, frames: int) -> tuple[int, np.ndarray]:
@@ -248,8 +254,8 @@ class QueueMixer(Mixer):
             else:
                 self._ring[:, first:] = 0.0
                 self._ring[:, :first + n - self._size] = 0.0
-            for old in range(self._kept, q, QUANTUM):
-                self._states.pop(old, None)
+            while self._runs and self._runs[0][1] <= q:
+                self._runs.pop(0)
             self._kept = q
             self._prune()
 
@@ -258,5 +264,5 @@ class QueueMixer(Mixer):
         cut = self.clear()
         with self._lock:
             self._clock = self._heard = self._kept = 0
-            self._states.clear()
+            self._runs.clear()
         return cut
