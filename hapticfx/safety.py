@@ -114,9 +114,7 @@ class SafetyLimiter:
         x = valid_signal(samples, name="limiter input").copy()
         with self._lock:
             if at_s is not None and at_s > self._clock_s:
-                gap_n = int((at_s - self._clock_s) * self.rate_hz)
-                keep = self._win - 1
-                self._tail = np.concatenate([self._tail, np.zeros(min(gap_n, keep))])[-keep:] if keep else self._tail
+                self._tail = self._tail_after_gap(at_s)
                 self._clock_s = float(at_s)
             peak = float(np.max(np.abs(x)))
             if peak > self._peak:
@@ -165,16 +163,13 @@ class SafetyLimiter:
         gains[acts] = self._peak / peaks[acts]
         out = x * np.repeat(gains, block)[:x.size] if acts.any() else x.copy()
         np.clip(out, -self._peak, self._peak, out=out)
-        tail = self._tail
-        if at_s > self._clock_s and keep:
-            tail = np.concatenate([tail, np.zeros(min(int((at_s - self._clock_s) * self.rate_hz), keep))])[-keep:]
+        tail = self._tail_after_gap(at_s) if at_s > self._clock_s else self._tail
         joined = np.concatenate([tail, out])
         if self._over_budget(joined, slack=1 + 1e-12):
             return None
         events = self._counts["peak_events"] + np.concatenate([[0], np.cumsum(acts)])
         reduction = np.minimum.accumulate(np.concatenate([[self._max_reduction], gains]))
-        first = (self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction)
-        states = _RunStates(first, joined, tail.size, keep, at_s, block, self.rate_hz, events, reduction)
+        states = _RunStates(self._state(), joined, tail.size, keep, at_s, block, self.rate_hz, events, reduction)
         self._counts["peak_events"] = int(events[-1])
         self._max_reduction = float(reduction[-1])
         self._tail = joined[-keep:] if keep else np.zeros(0)
@@ -184,8 +179,20 @@ class SafetyLimiter:
     def state(self) -> tuple:
         """Everything ``process`` changes, to :meth:`restore` later and limit the same stretch again
         (audio written ahead of playback and then mixed into: the output goes on exactly from there)."""
-        with self._lock:  # _tail is replaced, never changed in place
-            return self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction
+        with self._lock:
+            return self._state()
+
+    def _state(self) -> tuple:
+        # _tail is replaced, never changed in place
+        return self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction
+
+    def _tail_after_gap(self, at_s: float) -> np.ndarray:
+        """The output tail with the silence between the last block and ``at_s`` (seconds, later) added."""
+        keep = self._win - 1
+        if not keep:
+            return self._tail
+        gap_n = int((at_s - self._clock_s) * self.rate_hz)
+        return np.concatenate([self._tail, np.zeros(min(gap_n, keep))])[-keep:]
 
     def restore(self, state: tuple) -> None:
         """Go back to a :meth:`state` taken before."""

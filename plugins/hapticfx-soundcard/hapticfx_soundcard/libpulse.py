@@ -3,6 +3,9 @@
 Only what :mod:`hapticfx_soundcard.queuestream` needs: a float32 stream with a
 chosen queue length, writes at absolute stream positions (over audio already
 queued), the playing position, and the server's read index after a write.
+PortAudio cannot write over queued audio; libpulse can (``PA_SEEK_ABSOLUTE``).
+Callbacks run on libpulse's own thread with its lock held; every other call
+takes the lock (:meth:`Playback.locked`).
 
 The playing position is worked out here from the server's timing, asked for
 again at every request for audio, rather than taken from libpulse's own
@@ -10,9 +13,6 @@ interpolation (``PA_STREAM_INTERPOLATE_TIMING``): that one only moves forward,
 and after a stall of the server it learns the slope of the server catching up
 and ran ahead of playback by a second and more, so impacts were written that
 much too late.
-PortAudio cannot write over queued audio; libpulse can (``PA_SEEK_ABSOLUTE``).
-Callbacks run on libpulse's own thread with its lock held; every other call
-takes the lock (:meth:`Playback.locked`).
 """
 
 from __future__ import annotations
