@@ -275,7 +275,10 @@ class Engine:
             before = out.limiter.report().total
             signal = Signal.adopt(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)
             limited = limited or out.limiter.report().total > before
-        out.actuator.play(signal)
+        if out.actuator.takes_received:
+            out.actuator.play(signal, received=job.received)
+        else:
+            out.actuator.play(signal)
         for note in delivery.notes:
             self._log.event(("note", job.object), f"{job.object}: {note}")
         playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,

@@ -287,6 +287,10 @@ class Actuator(abc.ABC):
     # True when the actuator sums overlapping impacts itself and runs a SafetyLimiter with its ``limits`` on the
     # sum it outputs (a sound card's mixing stream): an engine then leaves the sum of its effects to it.
     limits_mix: ClassVar[bool] = False
+    # True when ``play`` takes ``received=`` (the ``time.perf_counter()`` at which the impact was received) and
+    # counts the impact's latency from then, so that the time spent rendering it does not add to it (a sound
+    # card's queue at the server): an engine then passes it.
+    takes_received: ClassVar[bool] = False
 
     def open(self) -> None:
         """Acquire the device. Raises :class:`hapticfx.errors.DeviceError` if it is absent."""

@@ -10,11 +10,13 @@ from __future__ import annotations
 import subprocess
 import sys
 import threading
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 
+from hapticfx.actuators.virtual import MemoryActuator
 from hapticfx.engine import Engine
 from hapticfx.errors import EffectError, HapticfxError, SignalError
 from hapticfx.hookspecs import hookimpl
@@ -52,10 +54,29 @@ class GatedModel(Model):
         return Signal(np.sin(np.linspace(0, 20, 200)) * min(impact.velocity / 5, 1.0), 1000.0)
 
 
+class TimedMemory(MemoryActuator):
+    """A memory actuator that asks for each impact's time of receipt, as the sound card's queue does."""
+
+    name = "test-timed"
+    takes_received = True
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.receipts: list[float] = []
+
+    def play(self, signal: Signal, *, received: float) -> None:
+        self.receipts.append(received)
+        super().play(signal)
+
+
 class TestPlugin:
     @hookimpl
     def register_models(self, register):
         register("test-gated", GatedModel)
+
+    @hookimpl
+    def register_actuators(self, register):
+        register("test-timed", TimedMemory)
 
 
 @pytest.fixture
@@ -250,8 +271,6 @@ def test_a_raising_on_played_callback_is_counted_apart(tmp_path, registry):
 
 def _wait_for(condition, timeout=10.0):
     """Poll ``condition`` until true (a state to reach, not a speed to meet); fails after ``timeout``."""
-    import time
-
     deadline = time.monotonic() + timeout
     while not condition():
         assert time.monotonic() < deadline, "condition not reached"
@@ -273,6 +292,20 @@ def test_a_held_output_never_delays_another(tmp_path, registry):
     GATE.set()
     stats = engine.close()
     assert stats["rendered"] == 8 and stats["pending"] == 0
+
+
+def test_an_actuator_that_takes_the_time_of_receipt_gets_each_impacts(tmp_path, registry):
+    path = scene(tmp_path)
+    path.write_text(path.read_text().replace("helmet: {type: memory", "helmet: {type: test-timed"))
+    engine = Engine(path, registry=registry)
+    before = time.perf_counter()
+    for v in (2.0, 3.0, 4.0):
+        assert engine.impact("brick", v)
+    engine.close()
+    helmet = engine._outputs["actuators.helmet#0"].actuator
+    assert isinstance(helmet, TimedMemory) and helmet.received == 3
+    assert helmet.receipts == [p.received for p in engine.played() if p.output == "actuators.helmet#0"]
+    assert before <= helmet.receipts[0] <= helmet.receipts[-1] <= time.perf_counter()
 
 
 def test_channel_0_is_the_default_channel_of_an_entry_without_one(tmp_path, registry):

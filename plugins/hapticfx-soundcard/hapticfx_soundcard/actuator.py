@@ -53,7 +53,9 @@ class SoundCardParams:
         "(docs/soundcard.md); device then names a sink; 0: a PortAudio stream of `latency`; 'auto': a 0.15 s "
         "queue on the default device when a PulseAudio server answers, else PortAudio", min=0.0, max=2.0))
     ahead: float = field(default=0.01, metadata=doc(
-        "with queue: how far ahead of playback a new impact is written, i.e. its latency", min=0.002, max=0.5))
+        "with queue: how far ahead of playback a new impact is written, i.e. its latency; an engine's impact is "
+        "written that long after it was received, so its render time does not add (down to 5 ms ahead)",
+        min=0.002, max=0.5))
 
 
 class SoundCardActuator(Actuator):
@@ -67,6 +69,7 @@ class SoundCardActuator(Actuator):
 
     Params = SoundCardParams
     limits_mix = True  # the stream's mixer limits each channel's sum with this actuator's limits
+    takes_received = True  # the queue at the server writes an impact `ahead` after it was received
     name: ClassVar[str]
     band_hz: ClassVar[tuple[float, float]]
     volts_peak: ClassVar[float]
@@ -128,8 +131,14 @@ class SoundCardActuator(Actuator):
             raise DeviceError(f"{self.name} is not open; use it as a context manager or call open()")
         return self._stream
 
-    def play(self, signal: Signal) -> None:
-        """Queue ``signal`` (normalised, limited) on this actuator's channel; returns at once."""
+    def play(self, signal: Signal, *, received: float | None = None) -> None:
+        """Queue ``signal`` (normalised, limited) on this actuator's channel; returns at once.
+
+        ``received``: when the impact was received (``time.perf_counter()``; default: now). Through the
+        queue at the server it is heard ``ahead`` after that, however long it took to render, as long as
+        it can still be written that far ahead of playback (else as soon as it safely can); a PortAudio
+        stream mixes it into its next block either way.
+        """
         if not isinstance(signal, Signal):
             signal = Signal(signal, self.spec.rate_hz)
         stream = self._require_stream()
@@ -137,7 +146,7 @@ class SoundCardActuator(Actuator):
             raise DeviceError(f"{self.name} takes one channel; got a signal of shape {signal.samples.shape}")
         if signal.rate_hz != stream.rate_hz:
             signal = resample(signal, stream.rate_hz)
-        stream.play(self.channel, signal.samples)
+        stream.play(self.channel, signal.samples, received=received)
 
     def check(self) -> None:
         """Raise :class:`DeviceError` while the device is unavailable (it is being reopened)."""

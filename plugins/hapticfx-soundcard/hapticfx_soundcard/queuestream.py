@@ -6,9 +6,12 @@ of the machine (40-66 ms here, docs/benchmarks.md) delays every impact as much.
 This stream keeps ``queue`` seconds queued at the server, so a stall shorter
 than that leaves the sound unbroken, and writes each new impact over the queued
 audio ``ahead`` seconds before the frame being heard (libpulse's absolute seek):
-its latency is ``ahead``, not ``queue``. The queue is refilled on libpulse's
-thread every few milliseconds; that callback is Python too, but it has until the
-queue runs dry to get the GIL, not a block's period.
+its latency is ``ahead``, not ``queue``. An impact handed over with the time it
+was received (the engine does) is written ``ahead`` after that time, so the time
+it took to render adds nothing, as long as that still leaves ``SOONEST_S`` before
+playback. The queue is refilled on libpulse's thread every few milliseconds; that
+callback is Python too, but it has until the queue runs dry to get the GIL, not a
+block's period.
 
 Every impact goes through the channel's safety limiter: the mixer limits the
 queued audio again from the impact's start, from the limiters' state there
@@ -39,6 +42,9 @@ from .shared import SharedStream, Streams
 log = logging.getLogger(__name__)
 
 REQUEST_S = 0.005  # the server asks for more audio whenever this much was played (minreq)
+# An impact that took a while to render is still written at least this far ahead of playback (or `ahead`, if
+# shorter): the server's read index ran up to 4.0 ms ahead of the playing position (docs/soundcard.md).
+SOONEST_S = 0.005
 CHANNELS = 2  # the stream's channels to start with (the paper's two voice-coil actuators); more reopen it
 
 _streams = Streams()  # by sink name ("": the default sink)
@@ -70,6 +76,7 @@ class QueueStream(SharedStream):
         self.sink = sink
         self.queue_s, self.ahead_s = float(queue_s), float(ahead_s)
         self._ahead = int(round(ahead_s * self.rate_hz))
+        self._soonest = int(round(min(ahead_s, SOONEST_S) * self.rate_hz))
         self.buffer_changes: list[tuple[float, float, float]] = []  # the queue is never lengthened
         self.late = 0  # impacts whose first frame the server had read before their write came
         self._last_request = time.monotonic()
@@ -143,7 +150,10 @@ class QueueStream(SharedStream):
 
     # --- caller side ----------------------------------------------------------------
 
-    def play(self, channel: int, samples: np.ndarray) -> None:
+    def play(self, channel: int, samples: np.ndarray, *, received: float | None = None) -> None:
+        """Write one impact over the queue ``ahead`` after ``received`` (``time.perf_counter()``; None: now),
+        so that the time it took to render does not add to its latency; at least ``SOONEST_S`` (or
+        ``ahead``) ahead of playback."""
         playback = self._playback
         if playback is None:
             self.check()
@@ -153,11 +163,18 @@ class QueueStream(SharedStream):
             self.check()
             if playback is not self._playback:
                 raise DeviceError(f"{self.name} is being reconnected")
-            written = self.mixer.add_at(channel, samples, playback.playing_frame() + self._ahead)
+            written = self.mixer.add_at(channel, samples, self._position(playback.playing_frame(), received))
             if written is not None:
                 start, audio = written
                 playback.write(audio, start)
                 playback.read_index_then(lambda read: self._landed(start, read))
+
+    def _position(self, playing: int, received: float | None) -> int:
+        """Where an impact received at ``received`` goes, with frame ``playing`` being heard now."""
+        if received is None:
+            return playing + self._ahead
+        since = max(0.0, time.perf_counter() - received)
+        return max(playing + self._soonest, playing + self._ahead - int(since * self.rate_hz))
 
     def _landed(self, start: int, read: int) -> None:
         if read > start:

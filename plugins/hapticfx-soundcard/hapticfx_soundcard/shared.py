@@ -117,8 +117,9 @@ class SharedStream(ABC):
         """Stop the stream and its watchdog (does not wait for what is queued)."""
 
     @abstractmethod
-    def play(self, channel: int, samples) -> None:
-        """Mix one impact into ``channel``; returns at once; DeviceError during an outage."""
+    def play(self, channel: int, samples, *, received: float | None = None) -> None:
+        """Mix one impact into ``channel``, received at ``received`` (``time.perf_counter()``; None: now);
+        returns at once; DeviceError during an outage."""
 
     @abstractmethod
     def drain(self, timeout_s: float | None) -> None:

@@ -241,7 +241,8 @@ class DeviceStream(SharedStream):
 
     # --- caller side ----------------------------------------------------------------
 
-    def play(self, channel: int, samples: np.ndarray) -> None:
+    def play(self, channel: int, samples: np.ndarray, *, received: float | None = None) -> None:
+        # `received` is not used: an impact can start no earlier than the next block, behind the buffer
         with self._state:
             self.check()
             self.mixer.add(channel, samples)

@@ -18,6 +18,7 @@ from hapticfx.signal import Signal
 from hapticfx_soundcard.actuator import VibroTransducer
 from hapticfx_soundcard.bench import LoopbackRecorder, click, onsets
 from hapticfx_soundcard.mixer import QUANTUM, QueueMixer
+from hapticfx_soundcard.queuestream import SOONEST_S
 
 RATE = 48000
 LIMITS = SafetyLimits(peak=1.0, rms=0.7)
@@ -156,6 +157,30 @@ def test_an_impact_is_heard_ahead_of_playback_not_behind_the_queue(soundserver):
     assert len(heard) == 10
     latency = heard - np.array(calls)
     assert np.all((latency > 0.004) & (latency < 0.05)), latency  # the queue (200 ms) is not waited out
+
+
+@pytest.mark.soundserver
+@pytest.mark.parametrize("rendered_s, earlier_s", [(0.004, 0.004), (1.0, 0.010 - SOONEST_S)])
+def test_an_impact_is_heard_ahead_after_it_was_received_not_after_it_was_rendered(soundserver, rendered_s, earlier_s):
+    """Two clicks handed over together, one received ``rendered_s`` before (as if it took that long to
+    render): it is heard that much earlier, but never less than SOONEST_S ahead of playback."""
+    ctx = {"device": "default"}
+    with VibroTransducer(VibroTransducer.Params(queue=0.15, ahead=0.01), BuildContext(**ctx, channel=0)) as late, \
+            VibroTransducer(VibroTransducer.Params(queue=0.15, ahead=0.01), BuildContext(**ctx, channel=1)) as now:
+        with LoopbackRecorder(RATE) as rec:
+            time.sleep(0.3)
+            for _ in range(8):
+                late.play(Signal(click(RATE), RATE), received=time.perf_counter() - rendered_s)
+                now.play(Signal(click(RATE), RATE))
+                time.sleep(0.1)
+            time.sleep(0.3)
+        assert late.underflows == 0 and late.losses() == {}
+    heard = [onsets(*rec.capture.timeline(ch)) for ch in (0, 1)]
+    assert len(heard[0]) == len(heard[1]) == 8
+    # each is written at the first 64-frame quantum at or after its position (up to 1.3 ms either way); the
+    # median, because a pause of the machine between the two calls moves the second one on
+    earlier = heard[1] - heard[0]
+    assert abs(np.median(earlier) - earlier_s) < QUANTUM / RATE + 2e-4, earlier
 
 
 @pytest.mark.soundserver
