@@ -60,7 +60,7 @@ def _serve(session, *, port: int, echo) -> None:
                 seen = len(session.answered)
                 echo(f"{session.participant}: {seen}/{len(session.schedule)} answered")
             for message in server.errors[errors:]:
-                echo(f"device error: {message}")
+                echo(message)
             errors = len(server.errors)
         time.sleep(1.0)  # let the page fetch the final screen
     echo(f"{session.participant}: complete; answers in {session.log.path}")

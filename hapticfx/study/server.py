@@ -2,13 +2,23 @@
 
 ``GET /`` is the page (``page/``, package data); ``GET /api/state`` says what
 it shows; ``POST /api/proceed``, ``/api/play`` and ``/api/answer`` act on the
-session and answer with the new state. POSTs carry the run's token (written
-into the page) and JSON, so another site open in the same browser cannot
-send answers.
+session and answer with the new state.
+
+What another site open in the same browser can do is nothing:
+
+- every request whose ``Host`` is not a loopback name (``localhost``,
+  ``127.x.x.x``, ``[::1]``), or whose ``Origin``, when sent, is not a loopback
+  origin, is refused with 403 before anything else, so a page that rebinds its
+  own DNS name to 127.0.0.1 can neither read the token out of the page nor act;
+- every ``/api/`` route needs the run's token (written into the page) in
+  ``X-Study-Token``; the actions take JSON only;
+- a malformed request (a ``Content-Length`` that is not a number, a body that
+  is not the JSON expected) is answered 400 and changes nothing.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import secrets
 import threading
@@ -22,6 +32,32 @@ from .session import AnswerRefused, Session
 ASSETS = {"/": ("index.html", "text/html; charset=utf-8"), "/app.js": ("app.js", "text/javascript; charset=utf-8"),
           "/style.css": ("style.css", "text/css; charset=utf-8")}
 MAX_BODY = 64 * 1024
+READ_TIMEOUT_S = 10.0  # a client that stops sending half-way holds one thread this long at most
+
+
+def loopback_name(host: str | None) -> bool:
+    """Whether ``host`` (a Host header's value, with or without its port) names this machine's loopback."""
+    if not host:
+        return False
+    name = host.strip().lower()
+    if name.startswith("["):  # [::1] or [::1]:port
+        name = name[1:name.find("]")] if "]" in name else ""
+    elif name.count(":") == 1:
+        name, port = name.split(":")
+        if not port.isdigit():
+            return False
+    if name in ("localhost", "localhost."):
+        return True
+    try:
+        return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
+def loopback_origin(origin: str) -> bool:
+    """Whether an ``Origin`` header names an http page on this machine's loopback."""
+    scheme, sep, rest = origin.strip().partition("://")
+    return bool(sep) and scheme.lower() == "http" and "/" not in rest and loopback_name(rest)
 
 
 def _asset(name: str) -> bytes:
@@ -36,9 +72,11 @@ class StudyServer:
         self.token = secrets.token_urlsafe(16)
         self.pages = {path: (_asset(name).replace(b"{{TOKEN}}", self.token.encode()), kind)
                       for path, (name, kind) in ASSETS.items()}
-        self.httpd = ThreadingHTTPServer((host, port), self._handler())
-        self.httpd.daemon_threads = True
+        if not loopback_name(host):
+            raise HapticfxError(f"the study page is served on the loopback address only, not {host!r}")
         self.errors: list[str] = []
+        self.httpd = _Server((host, port), self._handler(), self.errors)
+        self.httpd.daemon_threads = True
         self._thread: threading.Thread | None = None
 
     @property
@@ -50,8 +88,22 @@ class StudyServer:
         server = self
 
         class Handler(BaseHTTPRequestHandler):
+            timeout = READ_TIMEOUT_S
+
             def log_message(self, *args):  # the terminal belongs to the experimenter
                 pass
+
+            def _refused(self, *, api: bool) -> bool:
+                """Answer 403 (and True) for a foreign Host or Origin, or an API call without the token."""
+                origin = self.headers.get("Origin")
+                if not loopback_name(self.headers.get("Host")) or (origin is not None and not loopback_origin(origin)):
+                    self._json(403, {"error": "this page answers on the loopback address only (localhost, 127.0.0.1)"})
+                    return True
+                if api and not secrets.compare_digest(self.headers.get("X-Study-Token", "").encode("utf-8", "surrogateescape"),
+                                                      server.token.encode()):
+                    self._json(403, {"error": "this page belongs to another run; reload it"})
+                    return True
+                return False
 
             def _send(self, status: int, body: bytes, kind: str) -> None:
                 self.send_response(status)
@@ -65,6 +117,8 @@ class StudyServer:
                 self._send(status, json.dumps(data).encode(), "application/json")
 
             def do_GET(self):
+                if self._refused(api=self.path.startswith("/api/")):
+                    return None
                 if self.path == "/api/state":
                     return self._json(200, server.session.state())
                 page = server.pages.get(self.path)
@@ -73,11 +127,15 @@ class StudyServer:
                 self._send(200, *page)
 
             def do_POST(self):
-                if self.headers.get("X-Study-Token") != server.token:
-                    return self._json(403, {"error": "this page belongs to another run; reload it"})
-                length = int(self.headers.get("Content-Length") or 0)
-                if not 0 < length <= MAX_BODY or not self.headers.get("Content-Type", "").startswith("application/json"):
-                    return self._json(400, {"error": "expected a JSON body"})
+                if self._refused(api=True):
+                    return None
+                length = self.headers.get("Content-Length", "").strip()
+                if not (length.isdigit() and 0 < int(length) <= MAX_BODY) \
+                        or not self.headers.get("Content-Type", "").startswith("application/json"):
+                    self.close_connection = True  # the body's end is unknown: read no further
+                    return self._json(400, {"error": f"expected a JSON body of 1 to {MAX_BODY} bytes with its "
+                                                    "Content-Length"})
+                length = int(length)
                 try:
                     body = json.loads(self.rfile.read(length))
                     index = body["trial"]
@@ -99,7 +157,7 @@ class StudyServer:
                 except AnswerRefused as exc:
                     return self._json(HTTPStatus.CONFLICT, {"error": str(exc)})
                 except HapticfxError as exc:  # the device failed: the experimenter must see it too
-                    server.errors.append(str(exc))
+                    server.errors.append(f"device error: {exc}")
                     return self._json(500, {"error": f"the impact could not be played: {exc}"})
                 self._json(200, state)
 
@@ -123,3 +181,20 @@ class StudyServer:
     def __exit__(self, *exc):
         self.stop()
         return False
+
+
+class _Server(ThreadingHTTPServer):
+    """The page's HTTP server: an exception in a handler (a client gone half-way, or a bug) is one line in
+    ``errors`` for the experimenter, never a traceback on the terminal."""
+
+    def __init__(self, address, handler, errors: list[str]):
+        self.errors = errors
+        super().__init__(address, handler)
+
+    def handle_error(self, request, client_address) -> None:
+        import sys
+
+        exc = sys.exc_info()[1]
+        if isinstance(exc, (ConnectionError, TimeoutError)):
+            return  # the client went away: nothing to tell
+        self.errors.append(f"the study page failed on a request: {type(exc).__name__}: {exc}")

@@ -8,7 +8,7 @@ let state = null;
 let busy = false;
 
 async function call(path, body) {
-  const options = body === undefined ? {} : {
+  const options = body === undefined ? {headers: {"X-Study-Token": TOKEN}} : {
     method: "POST", headers: {"Content-Type": "application/json", "X-Study-Token": TOKEN}, body: JSON.stringify(body)};
   for (let attempt = 0; ; attempt++) {
     let response;
