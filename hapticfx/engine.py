@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import DeviceError, EffectError, HapticfxError, one_line
-from .interfaces import Actuator, Impact
+from .interfaces import Actuator, Impact, valid_vector
 from .osc import ImpactMessage
 from .pipeline import Delivery, Pipeline
 from .ratelog import RateLimitedLog
@@ -65,6 +65,8 @@ class Played:
     received: float
     started: float
     played: float
+    point: tuple[float, float, float] | None = None
+    normal: tuple[float, float, float] | None = None
 
     @property
     def latency_s(self) -> float:
@@ -81,7 +83,7 @@ class Playback(Played):
 
     def summary(self) -> Played:
         return Played(self.object, self.at, self.velocity, self.output, self.peak, self.duration_s, self.limited,
-                      self.received, self.started, self.played)
+                      self.received, self.started, self.played, self.point, self.normal)
 
 
 @dataclass
@@ -91,6 +93,8 @@ class _Job:
     at: float | None
     channel: int | None
     received: float
+    point: tuple[float, float, float] | None = None
+    normal: tuple[float, float, float] | None = None
 
 
 class _Output:
@@ -194,25 +198,31 @@ class Engine:
         """The object ids this engine renders."""
         return list(self._pipelines)
 
-    def impact(self, object: str, velocity: float, at: float | None = None, *, channel: int | None = None) -> bool:
+    def impact(self, object: str, velocity: float, at: float | None = None, *, channel: int | None = None,
+               point=None, normal=None) -> bool:
         """Queue one impact and return at once: True if queued, False if dropped (its output's queue is full).
 
+        ``at``: the simulation time of the collision (s); ``point`` and ``normal``:
+        where on the head it landed, in the head frame of docs/protocol.md.
         Raises :class:`~hapticfx.errors.HapticfxError` for an unknown object,
-        a bad velocity, time or channel, or a closed engine.
+        a bad velocity, time, channel, point or normal, or a closed engine.
         """
-        return self._submit(object, velocity, at, channel, time.perf_counter())
+        return self._submit(object, velocity, at, channel, time.perf_counter(), point, normal)
 
     def submit(self, message: ImpactMessage, received: float) -> bool:
         """Queue an impact decoded by the OSC bridge; ``received`` is its arrival (perf_counter)."""
-        return self._submit(message.object, message.velocity, message.at, message.channel, received)
+        return self._submit(message.object, message.velocity, message.at, message.channel, received,
+                            message.point, message.normal)
 
-    def _submit(self, object, velocity, at, channel, received) -> bool:
+    def _submit(self, object, velocity, at, channel, received, point=None, normal=None) -> bool:
         route = self._pipelines.get(object)
         if route is None:
             raise EffectError(f"unknown object {object!r}; the scene has: {', '.join(self._pipelines)}", source=self.scene.source)
         velocity = valid_velocity(velocity)
         if at is not None:
             at = valid_number(at, name="at")
+        point = valid_vector(point, name="point")
+        normal = valid_vector(normal, name="normal", unit=True)
         wired = route.effect.actuator.channel
         if channel is not None and channel != (wired or 0):  # no channel in the scene: the actuator's first, 0
             raise EffectError(
@@ -220,7 +230,7 @@ class Engine:
                 source=self.scene.source, key=f"effects.{object}.channel",
             )
         out = self._route[object]
-        job = _Job(object, velocity, at, channel, received)
+        job = _Job(object, velocity, at, channel, received, point, normal)
         with self._lock:
             if self._closed:  # checked under the lock: nothing is queued once close() began
                 raise HapticfxError("the engine is closed")
@@ -268,7 +278,8 @@ class Engine:
         """Render one impact (its limiter on the engine's clock ``now``) and play it."""
         started = time.perf_counter()
         pipeline = self._pipelines[job.object]
-        delivery = pipeline.render(Impact(pipeline.effect.object_id, job.velocity, now, job.channel))
+        delivery = pipeline.render(Impact(pipeline.effect.object_id, job.velocity, now, job.channel, at=job.at,
+                                          point=job.point, normal=job.normal))
         signal = delivery.output
         limited = delivery.limiter.total > 0
         if out.limiter is not None:
@@ -282,7 +293,8 @@ class Engine:
         for note in delivery.notes:
             self._log.event(("note", job.object), f"{job.object}: {note}")
         playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,
-                            job.received, started, time.perf_counter(), delivery, signal)
+                            job.received, started, time.perf_counter(), job.point, job.normal, delivery=delivery,
+                            signal=signal)
         with self._lock:
             out.counts["rendered"] += 1
             out.latencies.append(playback.latency_s)

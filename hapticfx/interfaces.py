@@ -22,18 +22,50 @@ if TYPE_CHECKING:
     from .data.dataset import Dataset
 
 
+def valid_vector(value, *, name: str, unit: bool = False) -> tuple[float, float, float] | None:
+    """``value`` as three finite floats (None stays None); ``unit``: scaled to length 1 (a zero vector is refused)."""
+    if value is None:
+        return None
+    try:
+        x = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise SignalError(f"{name} must be three numbers, got {value!r}") from None
+    if x.shape != (3,) or not np.all(np.isfinite(x)):
+        raise SignalError(f"{name} must be three finite numbers, got {value!r}")
+    if unit:
+        norm = float(np.linalg.norm(x))
+        if norm < 1e-9:
+            raise SignalError(f"{name} must not be zero")
+        x = x / norm
+    return (float(x[0]), float(x[1]), float(x[2]))
+
+
 @dataclass(frozen=True)
 class Impact:
-    """One collision event: which object, how fast, when, on which channel."""
+    """One collision event: which object, how fast, when, on which channel, and where on the head.
+
+    ``time_s`` is the engine's own clock (the safety limiter runs on it);
+    ``at`` is the simulation time the sender gave (seconds, None when not
+    given: OSC's ``at`` argument or a bundle's timetag); ``point`` and
+    ``normal`` are where on the head it landed, in the head frame of
+    docs/protocol.md (metres from the head's centre; the normal is made unit).
+    """
 
     object: str
     velocity: float
     time_s: float = 0.0
     channel: int | None = None
+    at: float | None = None
+    point: tuple[float, float, float] | None = None
+    normal: tuple[float, float, float] | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "velocity", valid_velocity(self.velocity))
         object.__setattr__(self, "time_s", valid_number(self.time_s, name="time_s"))
+        if self.at is not None:
+            object.__setattr__(self, "at", valid_number(self.at, name="at"))
+        object.__setattr__(self, "point", valid_vector(self.point, name="point"))
+        object.__setattr__(self, "normal", valid_vector(self.normal, name="normal", unit=True))
 
 
 class Profile(NamedTuple):

@@ -1,13 +1,14 @@
 """Open Sound Control over UDP: the network bridge of ``hapticfx serve``.
 
-One datagram is one OSC message (bundles are refused). The protocol is in
-``docs/protocol.md``; the one message that renders is::
+A datagram is one OSC message or a bundle of them. The protocol (version
+:data:`PROTOCOL_VERSION`) is in ``docs/protocol.md``; the one message that renders is::
 
-    /hapticfx/impact <object:s> <velocity:f|d|i> [<channel:i>] [<at:f|d>]
+    /hapticfx/impact <object:s> <velocity:f|d|i> [<channel:i> [<at:f|d> [<point:3x f|d> [<normal:3x f|d>]]]]
 
-Every datagram that arrives is either handed to the engine or dropped, and
-each drop is counted under one reason (:data:`DROP_REASONS`), so that
-``received == accepted + sum(dropped)`` always holds. Nothing a sender does
+A bundle's timetag is the engine's time of the impacts it holds (unless a
+message carries its own ``at``). Every message that arrives is either handed
+to the engine or dropped, and each drop is counted under one reason
+(:data:`DROP_REASONS`), so that ``received == accepted + sum(dropped)`` always holds. Nothing a sender does
 stops the server: decoding is strict, bounded by the datagram size, and runs
 on bytes that are never trusted.
 
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 import socket
 import struct
 import threading
@@ -35,15 +37,17 @@ from .signal import MAX_VELOCITY_MPS
 log = logging.getLogger(__name__)
 
 IMPACT_ADDRESS = "/hapticfx/impact"
+PROTOCOL_VERSION = 2  # 1: object, velocity, channel, at; 2: + contact point and normal, bundles with timetags
+MAX_BUNDLE_DEPTH = 4   # bundles inside bundles deeper than this are dropped (reason `bundle`)
 
 DROP_REASONS = (
     "oversize",        # longer than max_datagram bytes
     "rate_limited",    # over the token bucket (checked before any decoding)
     "not_osc",         # not a well-formed OSC 1.0 message
-    "bundle",          # an OSC bundle ('#bundle'): not supported, send messages
+    "bundle",          # a malformed or empty OSC bundle, or one nested too deep
     "wrong_address",   # a well-formed message to an address we do not serve
     "wrong_types",     # right address, type tags not one of the documented forms
-    "bad_value",       # velocity negative, non-finite or above 100 m/s, channel < -1, non-finite time
+    "bad_value",       # velocity negative, non-finite or above 100 m/s, channel < -1, non-finite time, point, normal
     "unknown_object",  # object id not in the scene
     "queue_full",      # the engine's queue was full
     "engine_refused",  # the engine rejected it for another reason (closed, invalid)
@@ -85,8 +89,8 @@ def decode_message(data: bytes) -> tuple[str, str, list]:
     """
     if len(data) < 8 or len(data) % 4:
         raise OscDecodeError("not_osc", f"length {len(data)} is not a positive multiple of 4")
-    if data.startswith(b"#bundle\x00"):
-        raise OscDecodeError("bundle", "OSC bundles are not supported")
+    if data.startswith(BUNDLE_HEAD):
+        raise OscDecodeError("bundle", "a bundle, not a message (see split_bundle)")
     if data[0:1] != b"/":
         raise OscDecodeError("not_osc", "address does not start with '/'")
     address, pos = _read_string(data, 0)
@@ -114,43 +118,118 @@ def decode_message(data: bytes) -> tuple[str, str, list]:
     return address, tags, args
 
 
+BUNDLE_HEAD = b"#bundle\x00"
+IMMEDIATELY = 1  # the timetag that means "now": no time
+NTP_TO_UNIX_S = 2_208_988_800  # seconds from 1900 (NTP's epoch) to 1970 (Unix's)
+
+
+def timetag_seconds(timetag: int) -> float | None:
+    """An OSC timetag (NTP: 32-bit seconds since 1900, 32-bit fraction) as seconds since 1970; None for
+    'immediately'. python-osc's ``OscBundleBuilder(t)`` and liblo's ``lo_timetag`` from a time ``t`` give ``t``."""
+    if timetag == IMMEDIATELY:
+        return None
+    return ((timetag >> 32) - NTP_TO_UNIX_S) + (timetag & 0xFFFFFFFF) / 2**32
+
+
+def split_bundle(data: bytes, *, depth: int = 0) -> list[tuple[bytes, float | None]]:
+    """The messages of an OSC bundle (nested bundles flattened), each with its innermost timetag in seconds.
+
+    Raises :class:`OscDecodeError` (``bundle``) for an empty or malformed bundle or one nested
+    deeper than :data:`MAX_BUNDLE_DEPTH`; the messages themselves are not decoded here.
+    """
+    if depth > MAX_BUNDLE_DEPTH:
+        raise OscDecodeError("bundle", f"bundles nested deeper than {MAX_BUNDLE_DEPTH}")
+    if len(data) < 24 or len(data) % 4 or not data.startswith(BUNDLE_HEAD):
+        raise OscDecodeError("bundle", "a bundle needs '#bundle', a timetag and at least one element")
+    (timetag,) = struct.unpack_from(">Q", data, 8)
+    at = timetag_seconds(timetag)
+    out: list[tuple[bytes, float | None]] = []
+    pos = 16
+    while pos < len(data):
+        if pos + 4 > len(data):
+            raise OscDecodeError("bundle", "element size runs past the end of the bundle")
+        (size,) = struct.unpack_from(">i", data, pos)
+        pos += 4
+        if size <= 0 or size % 4 or pos + size > len(data):
+            raise OscDecodeError("bundle", f"element of {size} byte(s) does not fit the bundle")
+        element = data[pos:pos + size]
+        pos += size
+        if element.startswith(BUNDLE_HEAD):
+            out.extend(split_bundle(element, depth=depth + 1))
+        else:
+            out.append((element, at))
+    return out
+
+
 def _osc_string(text: str) -> bytes:
     raw = text.encode("utf-8") + b"\x00"
     return raw + b"\x00" * (-len(raw) % 4)
 
 
-def encode_impact(object: str, velocity: float) -> bytes:
-    """The datagram ``/hapticfx/impact ,sf object velocity`` (for benchmarks and tools that send impacts)."""
-    return _osc_string(IMPACT_ADDRESS) + _osc_string(",sf") + _osc_string(object) + struct.pack(">f", velocity)
+def encode_impact(object: str, velocity: float, channel: int | None = None, at: float | None = None,
+                  point=None, normal=None) -> bytes:
+    """The datagram ``/hapticfx/impact`` with floats (``,sf``) and, as given, channel (``i``), time (``d``),
+    point and normal (``fff`` each); a later field needs the earlier ones (channel None: -1, the scene's)."""
+    if (point is not None and at is None) or (normal is not None and point is None):
+        raise ValueError("a point needs a time, and a normal needs a point")
+    tags, body = "sf", struct.pack(">f", velocity)
+    if channel is not None or at is not None or point is not None:
+        tags, body = tags + "i", body + struct.pack(">i", -1 if channel is None else channel)
+    if at is not None:
+        tags, body = tags + "d", body + struct.pack(">d", at)
+    for vector in (point, normal):
+        if vector is not None:
+            tags, body = tags + "fff", body + struct.pack(">3f", *vector)
+    return _osc_string(IMPACT_ADDRESS) + _osc_string("," + tags) + _osc_string(object) + body
 
 
 @dataclass(frozen=True)
 class ImpactMessage:
-    """A decoded ``/hapticfx/impact``: object, velocity, optional channel and time."""
+    """A decoded ``/hapticfx/impact``: object, velocity, and the optional channel, time, contact point and normal."""
 
     object: str
     velocity: float
     channel: int | None = None
     at: float | None = None
+    point: tuple[float, float, float] | None = None
+    normal: tuple[float, float, float] | None = None
 
 
-_IMPACT_FORMS = {"sf", "sd", "si", "sfi", "sdi", "sii", "sfif", "sfid", "sdif", "sdid", "siif", "siid"}
+# s, a velocity, then optional groups, each needing the one before: channel, time, point (3), normal (3).
+# Version 1's forms (',sf' ... ',siid') are the first three levels.
+_IMPACT_FORM = re.compile(r"s[fdi](?:i(?:[fd](?:[fd]{3}(?:[fd]{3})?)?)?)?")
 
 
-def parse_impact(tags: str, args: list | None) -> ImpactMessage:
-    """Check an ``/hapticfx/impact`` message's arguments; raises :class:`OscDecodeError`."""
-    if args is None or tags not in _IMPACT_FORMS:
-        raise OscDecodeError("wrong_types", f"type tags ',{tags}'; expected ',sf', ',sfi' or ',sfif'")
+def _vector(args: list, name: str) -> tuple[float, float, float]:
+    v = tuple(float(a) for a in args)
+    if not all(math.isfinite(c) for c in v):
+        raise OscDecodeError("bad_value", f"{name} {v} is not three finite numbers")
+    return v
+
+
+def parse_impact(tags: str, args: list | None, *, at: float | None = None) -> ImpactMessage:
+    """Check an ``/hapticfx/impact`` message's arguments; raises :class:`OscDecodeError`.
+
+    ``at``: the time of the bundle that held the message, used when the message carries none.
+    """
+    if args is None or not _IMPACT_FORM.fullmatch(tags):
+        raise OscDecodeError("wrong_types", f"type tags ',{tags}'; expected ',sf', ',sfi', ',sfid', ',sfidddd' "
+                                            "or ',sfidddddd' (docs/protocol.md)")
     obj, velocity = args[0], float(args[1])
     channel = args[2] if len(args) > 2 else -1
-    at = float(args[3]) if len(args) > 3 else None
+    if len(args) > 3:
+        at = float(args[3])
     if not math.isfinite(velocity) or not 0 <= velocity <= MAX_VELOCITY_MPS:
         raise OscDecodeError("bad_value", f"velocity {velocity:g} is not a finite number in [0, {MAX_VELOCITY_MPS:g}] m/s")
     if channel < -1:
         raise OscDecodeError("bad_value", f"channel {channel} (use -1 for the scene's channel)")
     if at is not None and not math.isfinite(at):
         raise OscDecodeError("bad_value", f"time {at} is not finite")
-    return ImpactMessage(obj, velocity, None if channel == -1 else channel, at)
+    point = _vector(args[4:7], "point") if len(args) > 4 else None
+    normal = _vector(args[7:10], "normal") if len(args) > 7 else None
+    if normal is not None and math.hypot(*normal) < 1e-9:
+        raise OscDecodeError("bad_value", "normal is zero")
+    return ImpactMessage(obj, velocity, None if channel == -1 else channel, at, point, normal)
 
 
 class TokenBucket:
@@ -212,7 +291,7 @@ Submit = Callable[[ImpactMessage, float], bool]
 
 
 class OscBridge:
-    """Receives OSC datagrams on a UDP socket and submits impacts.
+    """Receives OSC datagrams (messages or bundles) on a UDP socket and submits impacts.
 
     ``submit(message, received_at)`` (usually :meth:`hapticfx.Engine.submit`)
     returns True when queued, False when the queue was full; it may raise a
@@ -250,28 +329,39 @@ class OscBridge:
         return self._sock.getsockname()[:2]
 
     def handle(self, data: bytes, received_at: float) -> str | None:
-        """Handle one datagram; returns the drop reason, or None when accepted."""
-        reason = self._classify(data, received_at)
+        """Handle one datagram (a message, or a bundle of them, each counted); returns the first drop reason,
+        or None when every message was accepted."""
+        reasons = self._classify(data, received_at)
         with self._lock:
-            self.counters.received += 1
-            if reason is None:
-                self.counters.accepted += 1
-            else:
-                self.counters.dropped[reason] += 1
-        return reason
+            for reason in reasons:
+                self.counters.received += 1
+                if reason is None:
+                    self.counters.accepted += 1
+                else:
+                    self.counters.dropped[reason] += 1
+        return next((r for r in reasons if r is not None), None)
 
-    def _classify(self, data: bytes, received_at: float) -> str | None:
+    def _classify(self, data: bytes, received_at: float) -> list[str | None]:
+        if len(data) > self.max_datagram:
+            return ["oversize"]
+        if not self.bucket.take():
+            return ["rate_limited"]
+        if not data.startswith(BUNDLE_HEAD):
+            return [self._message(data, None, received_at)]
+        try:
+            messages = split_bundle(data)
+        except OscDecodeError as exc:
+            return [exc.reason]
+        return [self._message(m, at, received_at) for m, at in messages]
+
+    def _message(self, data: bytes, at: float | None, received_at: float) -> str | None:
         from .errors import HapticfxError
 
-        if len(data) > self.max_datagram:
-            return "oversize"
-        if not self.bucket.take():
-            return "rate_limited"
         try:
             address, tags, args = decode_message(data)
             if address != IMPACT_ADDRESS:
                 return "wrong_address"
-            message = parse_impact(tags, args)
+            message = parse_impact(tags, args, at=at)
         except OscDecodeError as exc:
             return exc.reason
         if message.object not in self.known_objects:

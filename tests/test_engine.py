@@ -123,6 +123,20 @@ def test_impact_returns_while_the_worker_renders_on_another_thread(tmp_path, reg
     assert not hasattr(played, "signal")  # the history keeps no samples
     assert playbacks[0].signal.rate_hz == 2000 and playbacks[0].summary() == played
     assert playbacks[0].delivery.impact.object == "concrete-brick"  # the effect's object, not the scene key
+    assert playbacks[0].delivery.impact.at == 12.5  # the sender's time rides on the impact the model renders
+
+
+def test_point_and_normal_ride_on_the_impact_and_bad_ones_are_refused(tmp_path, registry):
+    playbacks = []
+    engine = Engine(scene(tmp_path), registry=registry, on_played=playbacks.append)
+    assert engine.impact("brick", 3.0, at=1.0, point=(0.0, 0.05, 0.12), normal=(0, 0, 2))
+    for bad in ({"point": (0, 1)}, {"point": (0, float("nan"), 1)}, {"normal": (0, 0, 0)}, {"normal": "up"}):
+        with pytest.raises(SignalError):
+            engine.impact("brick", 3.0, **bad)
+    engine.close()
+    impact = playbacks[0].delivery.impact
+    assert impact.point == (0.0, 0.05, 0.12) and impact.normal == (0.0, 0.0, 1.0) and impact.at == 1.0
+    assert engine.played()[0].point == (0.0, 0.05, 0.12) and engine.played()[0].normal == (0.0, 0.0, 1.0)
 
 
 def test_full_queue_drops_without_blocking_and_counts(tmp_path, registry):

@@ -56,7 +56,7 @@ def malformed(rng: random.Random) -> list[tuple[str, bytes]]:
             lambda: b"/" + rng.randbytes(rng.randrange(0, 40)).replace(b"\x00", b"\x01"),  # no terminator
         ],
         "oversize": [lambda: rng.randbytes(rng.randrange(1025, 8000))],
-        "bundle": [lambda: _bundle()],
+        "bundle": [lambda: _bundle(rng)],
         "wrong_address": [lambda: osc("/" + "".join(rng.choices("abcxyz/", k=rng.randrange(1, 30))), "concrete-brick", (3.8, "f"))],
         "wrong_types": [
             lambda: osc("/hapticfx/impact", "concrete-brick"),
@@ -79,10 +79,12 @@ def malformed(rng: random.Random) -> list[tuple[str, bytes]]:
     return out
 
 
-def _bundle() -> bytes:
+def _bundle(rng: random.Random) -> bytes:
+    """A bundle that holds no message: empty, or its one element's size runs past its end."""
     b = OscBundleBuilder(IMMEDIATELY)
     b.add_content(OscMessageBuilder("/hapticfx/impact").build())
-    return b.build().dgram
+    whole = b.build().dgram
+    return whole[:16] if rng.random() < 0.5 else whole[:-4]
 
 
 class Server:

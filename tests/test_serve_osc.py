@@ -228,3 +228,71 @@ def test_every_shipped_scene_takes_an_impact_on_channel_0(scene):
     with Engine(scene, device="memory") as engine:
         assert engine.submit(ImpactMessage(engine.objects[0], 3.0, channel=0), 0.0)
     assert engine.stats()["rendered"] == 1
+
+
+# --- protocol version 2: where on the head, and the engine's time ----------------------------------
+
+
+def _bundle(timetag, *elements: bytes) -> bytes:
+    body = b"".join(struct.pack(">i", len(e)) + e for e in elements)
+    return b"#bundle\x00" + struct.pack(">Q", timetag) + body
+
+
+def test_version_2_forms_carry_point_and_normal():
+    data = osc(IMPACT_ADDRESS, "brick", (3.8, "f"), (-1, "i"), (12.5, "d"), *[(v, "f") for v in (0.0, 0.0, 0.13)],
+               *[(v, "d") for v in (0.0, 0.0, 2.0)])
+    msg = parse_impact(*decode_message(data)[1:])
+    assert msg == ImpactMessage("brick", pytest.approx(3.8), None, 12.5, pytest.approx((0.0, 0.0, 0.13)), (0.0, 0.0, 2.0))
+    point_only = parse_impact("sfidfff", ["a", 1.0, 0, 2.0, 0.1, 0.0, 0.0])
+    assert point_only.channel == 0 and point_only.point == (0.1, 0.0, 0.0) and point_only.normal is None
+    from hapticfx.osc import encode_impact
+    assert parse_impact(*decode_message(encode_impact("a", 2.0, None, 1.5, (0.1, 0.2, 0.3), (0, 0, 1)))[1:]) == \
+        ImpactMessage("a", 2.0, None, 1.5, pytest.approx((0.1, 0.2, 0.3)), (0.0, 0.0, 1.0))
+
+
+@pytest.mark.parametrize("tags, args, reason", [
+    ("sfidff", ["a", 1.0, 0, 2.0, 0.1, 0.0], "wrong_types"),            # a point of two numbers
+    ("sfiffffffff", ["a", 1.0, 0, 2.0] + [0.0] * 6 + [1.0], "wrong_types"),  # one number too many
+    ("sfidfff", ["a", 1.0, 0, 2.0, 0.1, float("nan"), 0.0], "bad_value"),
+    ("sfidffffff", ["a", 1.0, 0, 2.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0], "bad_value"),  # a zero normal
+    ("sfidffffff", ["a", 1.0, 0, 2.0, 0.1, 0.0, 0.0, float("inf"), 0.0, 1.0], "bad_value"),
+])
+def test_version_2_bad_points(tags, args, reason):
+    with pytest.raises(OscDecodeError) as err:
+        parse_impact(tags, args)
+    assert err.value.reason == reason
+
+
+def test_bundle_timetag_is_the_engine_time_unless_the_message_has_its_own():
+    rec = Recorder()
+    bridge = OscBridge(rec, {"brick"}, port=0, rate_hz=0)
+    try:
+        tt = ((7 + 2_208_988_800) << 32) | (1 << 31)  # 7.5 s after 1970, in NTP's count from 1900
+        plain = osc(IMPACT_ADDRESS, "brick", (3.0, "f"))
+        timed = osc(IMPACT_ADDRESS, "brick", (4.0, "f"), (-1, "i"), (2.25, "d"))
+        assert bridge.handle(_bundle(tt, plain, timed), 0.0) is None
+        # python-osc's bundle builder on the wire too, nested one level, 'immediately' gives no time
+        inner = OscBundleBuilder(IMMEDIATELY)
+        inner.add_content(_msg(IMPACT_ADDRESS, "brick", (5.0, "f")))
+        assert bridge.handle(_bundle(tt, inner.build().dgram), 0.0) is None
+        assert [(m.velocity, m.at) for m in rec.messages] == [(3.0, 7.5), (4.0, 2.25), (5.0, None)]
+        stamped = OscBundleBuilder(20.25)  # python-osc writes a time t as NTP; it comes back as t
+        stamped.add_content(_msg(IMPACT_ADDRESS, "brick", (6.0, "f")))
+        assert bridge.handle(stamped.build().dgram, 0.0) is None and rec.messages[-1].at == pytest.approx(20.25, abs=1e-6)
+        # a bundle with one good and one bad message: each is counted
+        assert bridge.handle(_bundle(tt, plain, osc(IMPACT_ADDRESS, "anvil", (3.0, "f"))), 0.0) == "unknown_object"
+        stats = bridge.stats()
+        assert stats["received"] == 6 and stats["accepted"] == 5 and stats["dropped"]["unknown_object"] == 1
+        deep = plain
+        for _ in range(6):
+            deep = _bundle(tt, deep)
+        assert bridge.handle(deep, 0.0) == "bundle"
+    finally:
+        bridge.stop()
+
+
+def _msg(address, *args):
+    b = OscMessageBuilder(address)
+    for a in args:
+        b.add_arg(*a) if isinstance(a, tuple) else b.add_arg(a)
+    return b.build()
