@@ -42,7 +42,7 @@ def test_the_shipped_second_rig_spec_is_valid():
 def test_a_spec_simulates_its_own_objects_and_velocities(tmp_path):
     out = tmp_path / "mini"
     r = subprocess.run([sys.executable, "-m", "hapticfx", "data", "synth", str(out), "--spec",
-                        str(_write(tmp_path, SPEC)), "--workers", "1"], capture_output=True, text=True)
+                        str(_write(tmp_path, SPEC)), "--jobs", "1"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     ds = open_dataset(out)
     assert ds.name == "mini-rig" and sorted(ds.objects) == ["mallet", "tile"]

@@ -20,7 +20,7 @@ def run(capsys, *argv):
 def test_data_synth_writes_a_readable_dataset_and_refuses_to_overwrite(tmp_path, capsys):
     out = tmp_path / "sim"
     args = ("data", "synth", out, "--objects", "plastic-frame,steel-plate", "--velocities", "2.42,3.96",
-            "--drops", 2, "--workers", 1, "--seed", 3)
+            "--drops", 2, "--jobs", 1, "--seed", 3)
     code, stdout, err = run(capsys, *args)
     assert code == 0, err
     assert "steel-plate: 3.96 m/s done" in err  # progress on stderr

@@ -51,6 +51,15 @@ def test_recordings_are_deterministic_for_a_seed_and_differ_across_seeds():
     assert np.all(np.isfinite(a))
 
 
+def test_parallel_simulation_through_joblib_gives_the_serial_arrays():
+    info = PAPER_OBJECTS["concrete-brick"]
+    serial = record_drops(info, [2.42, 4.43], 2, seed=5, workers=1)
+    said = []
+    parallel = record_drops(info, [2.42, 4.43], 2, seed=5, workers=2, progress=said.append)
+    assert np.array_equal(serial, parallel)
+    assert len(said) == 2 and "4.43 m/s done (4/4 drops)" in said[-1]  # in order, one line per velocity
+
+
 def test_bad_velocities_and_drops_are_clear_errors():
     with pytest.raises(DatasetError, match="velocities"):
         record_drops(PAPER_OBJECTS["wood-beam"], [0.0, 2.0], 2, seed=1)

@@ -32,7 +32,9 @@ def synth(
     velocities: str = typer.Option("", "--velocities", help="Comma-separated velocities in m/s (default: the paper's 12)."),
     drops: int = typer.Option(10, "--drops", min=1, max=1000, help="Drops per velocity."),
     seed: int = typer.Option(20230417, "--seed", help="Random seed: the same seed gives the same recordings."),
-    workers: int = typer.Option(2, "--workers", min=1, max=64, help="Processes simulating drops in parallel."),
+    workers: int = typer.Option(0, "--jobs", "-j", "--workers", min=0, max=256,
+                                help="Processes simulating drops in parallel (joblib, loky); 0: every core. "
+                                     "Any value gives the same recordings."),
     force: bool = typer.Option(False, "--force", help="Replace OUT if it exists."),
     spec: Optional[Path] = typer.Option(None, "--spec", help="YAML spec: other objects (mass, size, material), "
                                         "velocities per object, drops, seed, helmet and sensor (see docs/physics.md; "
@@ -110,6 +112,24 @@ def bench_contact(
         typer.echo(f"wrote {out}")
 
 
+def bench_synth(
+    jobs: str = typer.Option("2", "--jobs", "-j", help="Comma-separated process counts to compare with serial (1)."),
+    drops: int = typer.Option(5, "--drops", min=1, max=100, help="Drops per velocity."),
+    velocities: int = typer.Option(12, "--velocities", min=1, max=12, help="How many of the paper's velocities."),
+    repeats: int = typer.Option(3, "--repeats", min=1, max=50, help="Timed runs per process count."),
+):
+    """Parallel simulation: `data synth`'s drops (wood beam, same seed) serially and through joblib with
+    --jobs processes; median wall time [min, max], speed-up over serial, and whether the arrays match."""
+    from . import synth_bench
+
+    counts = [int(x) for x in _floats(jobs, option="--jobs")]
+    if any(n < 1 or n > 256 for n in counts):
+        raise SignalError(f"--jobs must be process counts in [1, 256], got {jobs!r}")
+    rows = synth_bench.run(jobs=counts, drops=drops, velocities=velocities, repeats=repeats, progress=say)
+    typer.echo(synth_bench.table(rows))
+
+
 def register(bench: typer.Typer, data: typer.Typer) -> None:
     data.command("synth")(synth)
+    bench.command("synth")(bench_synth)
     bench.command("contact")(bench_contact)

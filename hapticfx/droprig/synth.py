@@ -159,10 +159,33 @@ def _record_one(args) -> np.ndarray:
     return rig.sensor.read(acc, rig.fine_rate_hz, start_s=start, n_samples=rig.n_samples, rng=rng, gravity_axis=up)
 
 
+def resolve_workers(workers: int | None) -> int:
+    """Processes to simulate with: ``None`` or ``0`` is every core."""
+    return int(workers) if workers else (os.cpu_count() or 1)
+
+
+def _run_jobs(jobs: list, workers: int | None) -> Iterable[np.ndarray]:
+    """``_record_one`` over ``jobs`` in order: serial, or in ``workers`` processes through joblib.
+
+    Each drop carries its own seed, so the arrays do not depend on how many processes ran them.
+    The backend is joblib's default (loky processes); a caller's ``joblib.parallel_config(backend=...)``
+    (Dask, Ray) takes the same call to a cluster.
+    """
+    workers = min(resolve_workers(workers), len(jobs))
+    if workers <= 1:
+        return map(_record_one, jobs)
+    from joblib import Parallel, delayed
+
+    return Parallel(n_jobs=workers, return_as="generator")(delayed(_record_one)(j) for j in jobs)
+
+
 def record_drops(info: ObjectInfo, velocities, n_drops: int, *, seed: int, rig: Rig | None = None,
-                 variation: Variation | None = None, workers: int = 1,
+                 variation: Variation | None = None, workers: int | None = 1,
                  progress: Callable[[str], None] | None = None) -> np.ndarray:
-    """Raw recordings ``(V, D, N, 3)`` in g (gravity included) of ``n_drops`` drops per velocity."""
+    """Raw recordings ``(V, D, N, 3)`` in g (gravity included) of ``n_drops`` drops per velocity.
+
+    ``workers``: processes (joblib, loky backend); ``None`` or 0 is every core. Same arrays for any value.
+    """
     rig = rig or Rig()
     v = valid_signal(velocities, name="velocities", ndim=1)
     if np.any(v <= 0):
@@ -175,27 +198,17 @@ def record_drops(info: ObjectInfo, velocities, n_drops: int, *, seed: int, rig: 
     seeds = noise_seed.generate_state(len(v) * n_drops).reshape(len(v), n_drops)
     jobs = [(info, plan[i][j], rig, int(seeds[i, j])) for i in range(len(v)) for j in range(n_drops)]
     say = progress or (lambda message: None)
-    if workers > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            results = []
-            for k, r in enumerate(pool.map(_record_one, jobs, chunksize=4)):
-                results.append(r)
-                if (k + 1) % n_drops == 0:
-                    say(f"{info.id}: {v[k // n_drops]:.2f} m/s done ({k + 1}/{len(jobs)} drops)")
-    else:
-        results = []
-        for k, job in enumerate(jobs):
-            results.append(_record_one(job))
-            if (k + 1) % n_drops == 0:
-                say(f"{info.id}: {v[k // n_drops]:.2f} m/s done ({k + 1}/{len(jobs)} drops)")
+    results = []
+    for k, r in enumerate(_run_jobs(jobs, workers)):
+        results.append(r)
+        if (k + 1) % n_drops == 0:
+            say(f"{info.id}: {v[k // n_drops]:.2f} m/s done ({k + 1}/{len(jobs)} drops)")
     return np.asarray(results, dtype=np.float32).reshape(len(v), n_drops, rig.n_samples, 3)
 
 
 def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VELOCITIES, *,
                   drops: int = BUILTIN_DROPS, seed: int = BUILTIN_SEED, name: str | None = None,
-                  rig: Rig | None = None, workers: int = 1, overwrite: bool = False,
+                  rig: Rig | None = None, workers: int | None = 1, overwrite: bool = False,
                   progress: Callable[[str], None] | None = None, command: str | None = None) -> Path:
     """Simulate every object's drops and write a dataset (raw + banks for both reducers) to ``out``.
 
@@ -250,7 +263,6 @@ def builtin_path() -> Path:
 def synth_builtin(*, workers: int | None = None, progress: Callable[[str], None] | None = None,
                   out: Path | None = None) -> Path:
     """Regenerate ``builtin:helmet-drops``: the paper's 4 objects x 12 velocities x 10 drops."""
-    workers = workers or min(2, os.cpu_count() or 1)
     path = synth_dataset(
         out or builtin_path(), PAPER_OBJECTS.values(), PAPER_VELOCITIES, drops=BUILTIN_DROPS,
         seed=BUILTIN_SEED, name=BUILTIN_NAME, workers=workers, overwrite=True, progress=progress,
