@@ -6,9 +6,15 @@ A datagram is one OSC message or a bundle of them. The protocol (version
     /hapticfx/impact <object:s> <velocity:f|d|i> [<channel:i> [<at:f|d> [<point:3x f|d> [<normal:3x f|d>]]]]
 
 A bundle's timetag is the engine's time of the impacts it holds (unless a
-message carries its own ``at``). Every message that arrives is either handed
-to the engine or dropped, and each drop is counted under one reason
-(:data:`DROP_REASONS`), so that ``received == accepted + sum(dropped)`` always holds. Nothing a sender does
+message carries its own ``at``). With a shared secret (``secret=``,
+``hapticfx serve --secret-file``) a message from another machine must be
+addressed ``/<secret>/hapticfx/impact``; the plain address keeps working from
+this machine. The bridge binds to a loopback address unless ``allow_remote``
+is set.
+
+Every message that arrives is either handed to the engine or dropped, and
+each drop is counted under one reason (:data:`DROP_REASONS`), so that
+``received == accepted + sum(dropped)`` always holds. Nothing a sender does
 stops the server: decoding is strict, bounded by the datagram size, and runs
 on bytes that are never trusted.
 
@@ -21,6 +27,8 @@ use python-osc to build messages, so both implementations meet on the wire.
 
 from __future__ import annotations
 
+import hmac
+import ipaddress
 import logging
 import math
 import re
@@ -46,12 +54,25 @@ DROP_REASONS = (
     "not_osc",         # not a well-formed OSC 1.0 message
     "bundle",          # a malformed or empty OSC bundle, or one nested too deep
     "wrong_address",   # a well-formed message to an address we do not serve
+    "unauthorized",    # /<secret>/hapticfx/impact with a wrong secret, or the plain address from another machine
     "wrong_types",     # right address, type tags not one of the documented forms
     "bad_value",       # velocity negative, non-finite or above 100 m/s, channel < -1, non-finite time, point, normal
     "unknown_object",  # object id not in the scene
     "queue_full",      # the engine's queue was full
     "engine_refused",  # the engine rejected it for another reason (closed, invalid)
 )
+
+
+SECRET_PATTERN = re.compile(r"[A-Za-z0-9_-]{16,128}")
+
+
+def check_secret(secret: str, *, source: str = "the OSC secret") -> str:
+    """``secret`` if it can stand in an OSC address (16-128 letters, digits, ``_`` or ``-``)."""
+    if not SECRET_PATTERN.fullmatch(secret):  # the message never shows the secret
+        got = f"{len(secret)} characters" if not 16 <= len(secret) <= 128 else "other characters"
+        raise HapticfxError(f"{source}: expected 16 to 128 letters, digits, '_' or '-' (it becomes part of the OSC "
+                            f"address), got {got}")
+    return secret
 
 
 class OscDecodeError(HapticfxError):
@@ -271,6 +292,10 @@ class BridgeCounters:
         }
 
 
+def _loopback(ip: str) -> bool:
+    return ip.startswith("127.")  # the socket is IPv4
+
+
 def _kernel_drops(sock: socket.socket) -> int | None:
     """The drop count Linux keeps for this UDP socket (``/proc/net/udp``), or None."""
     host, port = sock.getsockname()[:2]
@@ -303,8 +328,9 @@ class OscBridge:
 
     def __init__(self, submit: Submit, known_objects, *, host: str = "127.0.0.1", port: int = 9000,
                  max_datagram: int = 1024, rate_hz: float = 2000.0, burst: int = 500,
-                 recv_buffer: int = 4 << 20):
+                 recv_buffer: int = 4 << 20, allow_remote: bool = False, secret: str | None = None):
         self.submit = submit
+        self._secret_address = None if secret is None else f"/{check_secret(secret)}{IMPACT_ADDRESS}".encode()
         self.known_objects = frozenset(known_objects)
         self.max_datagram = int(max_datagram)
         self.bucket = TokenBucket(rate_hz, burst)
@@ -319,6 +345,12 @@ class OscBridge:
             from .errors import DeviceError
 
             raise DeviceError(f"cannot listen for OSC on {host}:{port}: {getattr(exc, 'strerror', None) or exc}") from None
+        self.remote = not ipaddress.ip_address(self._sock.getsockname()[0]).is_loopback
+        if self.remote and not allow_remote:
+            self._sock.close()
+            raise HapticfxError(f"{host}:{port} listens beyond this machine, where anyone who can reach the port "
+                                f"can play impacts; allow it explicitly (hapticfx serve --allow-remote) or bind "
+                                f"127.0.0.1")
         self._sock.settimeout(0.1)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -328,10 +360,10 @@ class OscBridge:
         """The bound (host, port); port 0 at construction gives a free one."""
         return self._sock.getsockname()[:2]
 
-    def handle(self, data: bytes, received_at: float) -> str | None:
-        """Handle one datagram (a message, or a bundle of them, each counted); returns the first drop reason,
-        or None when every message was accepted."""
-        reasons = self._classify(data, received_at)
+    def handle(self, data: bytes, received_at: float, sender: str = "127.0.0.1") -> str | None:
+        """Handle one datagram from ``sender`` (an IP address): a message, or a bundle of them, each counted;
+        returns the first drop reason, or None when every message was accepted."""
+        reasons = self._classify(data, received_at, sender)
         with self._lock:
             for reason in reasons:
                 self.counters.received += 1
@@ -341,25 +373,29 @@ class OscBridge:
                     self.counters.dropped[reason] += 1
         return next((r for r in reasons if r is not None), None)
 
-    def _classify(self, data: bytes, received_at: float) -> list[str | None]:
+    def _classify(self, data: bytes, received_at: float, sender: str) -> list[str | None]:
         if len(data) > self.max_datagram:
             return ["oversize"]
         if not self.bucket.take():
             return ["rate_limited"]
         if not data.startswith(BUNDLE_HEAD):
-            return [self._message(data, None, received_at)]
+            return [self._message(data, None, received_at, sender)]
         try:
             messages = split_bundle(data)
         except OscDecodeError as exc:
             return [exc.reason]
-        return [self._message(m, at, received_at) for m, at in messages]
+        return [self._message(m, at, received_at, sender) for m, at in messages]
 
-    def _message(self, data: bytes, at: float | None, received_at: float) -> str | None:
-        from .errors import HapticfxError
-
+    def _message(self, data: bytes, at: float | None, received_at: float, sender: str) -> str | None:
         try:
             address, tags, args = decode_message(data)
-            if address != IMPACT_ADDRESS:
+            if address == IMPACT_ADDRESS:
+                if self._secret_address is not None and not _loopback(sender):
+                    return "unauthorized"
+            elif address.endswith(IMPACT_ADDRESS) and address.count("/") == 3:  # /<secret>/hapticfx/impact
+                if self._secret_address is None or not hmac.compare_digest(address.encode(), self._secret_address):
+                    return "unauthorized"
+            else:
                 return "wrong_address"
             message = parse_impact(tags, args, at=at)
         except OscDecodeError as exc:
@@ -377,7 +413,7 @@ class OscBridge:
         read_size = self.max_datagram + 1  # one byte more than allowed tells us it was oversize
         while not self._stop.is_set():
             try:
-                data = self._sock.recv(read_size)
+                data, (sender, _) = self._sock.recvfrom(read_size)
             except TimeoutError:
                 continue
             except OSError as exc:  # e.g. ICMP-reported errors on some platforms: keep serving
@@ -385,7 +421,7 @@ class OscBridge:
                     break
                 log.debug("recv failed: %s", exc)
                 continue
-            self.handle(data, time.perf_counter())
+            self.handle(data, time.perf_counter(), sender)
 
     def start(self) -> "OscBridge":
         """Serve on a daemon thread."""

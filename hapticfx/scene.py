@@ -42,7 +42,8 @@ ENTRY_KEYS = ("effect", "inline", "actuator", "channel")
 class OscSettings:
     """``events.osc``: where ``hapticfx serve`` listens and what it tolerates."""
 
-    host: str = field(default="127.0.0.1", metadata=doc("address to bind; 127.0.0.1 keeps it local"))
+    host: str = field(default="127.0.0.1", metadata=doc(
+        "address to bind; 127.0.0.1 keeps it local; any other needs `hapticfx serve --allow-remote`"))
     port: int = field(default=9000, metadata=doc("UDP port; 0 picks a free one", min=0, max=65535))
     max_datagram: int = field(default=1024, metadata=doc("larger datagrams are dropped (bytes)", min=16, max=65507))
     rate_hz: float = field(default=2000.0, metadata=doc("token-bucket rate of datagrams per second; 0: unlimited", min=0.0))

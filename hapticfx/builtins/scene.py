@@ -39,9 +39,35 @@ def bench_scene_file(directory: Path, model: dict, *, port: int = 0) -> Path:
     return path
 
 
+def read_secret(path: Path) -> str:
+    """The OSC shared secret: the first line of ``path``."""
+    from ..osc import check_secret
+
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except FileNotFoundError:
+        raise DeviceError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DeviceError(f"{path}: cannot read the secret ({getattr(exc, 'strerror', None) or exc})") from None
+    return check_secret(lines[0].strip() if lines else "", source=f"{path}: the first line")
+
+
+def _remote_warning(address: tuple[str, int], secret: str | None) -> str:
+    where = f"{address[0]}:{address[1]}"
+    if secret is None:
+        return (f"hapticfx: warning: listening on {where}, beyond this machine, with no secret: anyone who can "
+                f"reach this UDP port can play impacts on the scene's actuators (docs/protocol.md; --secret-file)")
+    return (f"hapticfx: warning: listening on {where}, beyond this machine: other machines must address "
+            f"/<secret>/hapticfx/impact; the secret travels in clear text, so it keeps out senders that do not "
+            f"know it, not ones that can read the network (docs/protocol.md)")
+
+
 def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device: str | None,
-                stats_every: float, duration: float | None, echo) -> dict:
-    """Run the OSC bridge on a scene until SIGINT/SIGTERM (or ``duration``); returns the final counters."""
+                stats_every: float, duration: float | None, echo, allow_remote: bool = False,
+                secret: str | None = None, warn=None) -> dict:
+    """Run the OSC bridge on a scene until SIGINT/SIGTERM (or ``duration``); returns the final counters.
+
+    ``warn`` (default: ``echo``) receives the warning printed when the bridge listens beyond loopback."""
     from ..engine import Engine
     from ..osc import OscBridge
     from ..scene import OscSettings, load_scene
@@ -53,8 +79,10 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
         with Engine(scene, device=device) as engine:
             bridge = OscBridge(engine.submit, engine.objects, host=host or osc.host,
                                port=osc.port if port is None else port, max_datagram=osc.max_datagram,
-                               rate_hz=osc.rate_hz, burst=osc.burst)
+                               rate_hz=osc.rate_hz, burst=osc.burst, allow_remote=allow_remote, secret=secret)
             with bridge:
+                if bridge.remote:
+                    (warn or echo)(_remote_warning(bridge.address, secret))
                 h, p = bridge.address
                 echo(f"listening on {h}:{p} (OSC /hapticfx/impact; scene {scene.name!r}: {', '.join(engine.objects)})")
                 started = time.monotonic()
@@ -253,10 +281,19 @@ def register_commands(app, bench):
         device: str = typer.Option(None, help="Replace every actuator: 'memory' or 'wav:PATH' (one file per output)."),
         stats_every: float = typer.Option(0.0, min=0.0, help="Print the counters as JSON every this many seconds (0: only at exit)."),
         duration: float = typer.Option(None, min=0.0, help="Stop after this many seconds (default: until Ctrl-C or SIGTERM)."),
+        allow_remote: bool = typer.Option(False, "--allow-remote", help="Listen on an address other machines can "
+                                          "reach (--host 0.0.0.0, or the scene's host); refused without this flag."),
+        secret_file: Path = typer.Option(None, help="A file whose first line is a shared secret (16-128 letters, "
+                                         "digits, '_', '-'): other machines must then send /<secret>/hapticfx/impact."),
     ):
-        """Receive impacts over OSC/UDP (docs/protocol.md) and render them on the scene's actuators."""
+        """Receive impacts over OSC/UDP (docs/protocol.md) and render them on the scene's actuators.
+
+        Listens on 127.0.0.1 unless told otherwise; an address other machines can reach needs --allow-remote
+        and prints a warning."""
+        secret = read_secret(secret_file) if secret_file is not None else None
         out = serve_scene(scene, host=host, port=port, device=device, stats_every=stats_every, duration=duration,
-                          echo=lambda line: typer.echo(line, err=False) or sys.stdout.flush())
+                          echo=lambda line: typer.echo(line, err=False) or sys.stdout.flush(),
+                          allow_remote=allow_remote, secret=secret, warn=lambda line: typer.echo(line, err=True))
         typer.echo(json.dumps(out))
         engine = out["engine"]
         if engine.get("close_errors") or engine["failed"]:
