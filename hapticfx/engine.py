@@ -19,6 +19,7 @@ sender cannot space out its timestamps to defeat a duty-cycle limit.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import queue
 import threading
@@ -33,12 +34,13 @@ import numpy as np
 from .errors import DeviceError, EffectError, HapticfxError, one_line
 from .interfaces import Actuator, Impact, valid_vector
 from .osc import ImpactMessage
-from .pipeline import Delivery, Pipeline
+from .pipeline import Delivery, Pipeline, build_actuator
 from .ratelog import RateLimitedLog
 from .registry import Registry
 from .safety import SafetyLimiter
 from .scene import Scene, load_scene, stand_in_for
 from .signal import Signal, valid_number, valid_velocity
+from .spatial import Spatialiser
 
 log = logging.getLogger(__name__)
 
@@ -97,14 +99,29 @@ class _Job:
     normal: tuple[float, float, float] | None = None
 
 
+@dataclass
+class _Site:
+    """One actuator of a head output: where it sits, its actuator (one channel) and the limiter on its sum."""
+
+    name: str
+    channel: int
+    actuator: Actuator
+    limiter: SafetyLimiter | None
+
+
 class _Output:
     """One opened actuator: its queue, its worker, and (when effects share it and the actuator does not limit
-    its own mix) a limiter on their sum."""
+    its own mix) a limiter on their sum. A head output (a scene's ``head``) has several actuators, its
+    ``sites``, each with its own limiter, and a spatialiser that spreads each impact over them."""
 
-    def __init__(self, name: str, actuator: Actuator, shared: bool, limits, queue_size: int):
+    def __init__(self, name: str, actuator: Actuator, shared: bool, limits, queue_size: int, *,
+                 sites: list[_Site] | None = None, spatialiser: Spatialiser | None = None):
         self.name = name
         self.actuator = actuator
-        self.limiter = SafetyLimiter(limits, actuator.spec.rate_hz) if shared and not actuator.limits_mix else None
+        self.sites = sites
+        self.spatialiser = spatialiser
+        self.limiter = (SafetyLimiter(limits, actuator.spec.rate_hz)
+                        if shared and not actuator.limits_mix and sites is None else None)
         self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self.stop = threading.Event()
         self.counts = dict.fromkeys(OUTPUT_COUNTS, 0)
@@ -112,6 +129,17 @@ class _Output:
         self.latencies: deque[float] = deque(maxlen=LATENCIES_KEPT)
         self.failing: str | None = None  # the device error of its last impact, until one plays again
         self.worker: threading.Thread | None = None
+
+    @property
+    def actuators(self) -> list[Actuator]:
+        return [self.actuator] if self.sites is None else [s.actuator for s in self.sites]
+
+
+def _play_on(actuator: Actuator, signal: Signal, received: float) -> None:
+    if actuator.takes_received:
+        actuator.play(signal, received=received)
+    else:
+        actuator.play(signal)
 
 
 def _pending(counts: dict) -> int:
@@ -167,6 +195,7 @@ class Engine:
         groups: dict[str, list[str]] = {}
         for oid, entry in self.scene.entries.items():
             groups.setdefault(entry.output, []).append(oid)
+        head = self.scene.head
         for output, oids in groups.items():
             dev = stand_in_for(device, output, len(groups))
             first = None
@@ -174,21 +203,45 @@ class Engine:
                 pipeline = Pipeline(self.scene.entries[oid].effect, device=dev, registry=registry)
                 self._pipelines[oid] = pipeline
                 first = first or pipeline
-            self._outputs[output] = _Output(output, first.actuator, len(oids) > 1, first.limits, queue_size)
+            if head is not None and output == f"actuators.{head.actuator}":
+                self._outputs[output] = self._head_output(output, oids, first, device, len(groups), queue_size)
+            else:
+                self._outputs[output] = _Output(output, first.actuator, len(oids) > 1, first.limits, queue_size)
             for oid in oids:
                 self._route[oid] = self._outputs[output]
+
+    def _head_output(self, output: str, oids: list[str], first: Pipeline, device, n_groups: int,
+                     queue_size: int) -> _Output:
+        """The scene's head: one actuator per site (the head actuator's section on the site's channel)."""
+        head = self.scene.head
+        several = len(head.sites) > 1
+        sites = []
+        for site in head.sites:
+            effect = dataclasses.replace(first.effect, actuator=dataclasses.replace(first.effect.actuator,
+                                                                                    channel=site.channel))
+            dev = stand_in_for(device, f"{output}#{site.channel}", n_groups + len(head.sites) - 1)
+            actuator = build_actuator(first.plan, effect, dev)
+            actuator.limits = first.limits
+            limiter = (SafetyLimiter(first.limits, actuator.spec.rate_hz)
+                       if (several or len(oids) > 1) and not actuator.limits_mix else None)
+            sites.append(_Site(site.name, site.channel, actuator, limiter))
+        for oid in oids:  # shape at the rate the sites' device agrees on when it opens
+            self._pipelines[oid].actuator = sites[0].actuator
+        return _Output(output, sites[0].actuator, len(oids) > 1, first.limits, queue_size, sites=sites,
+                       spatialiser=Spatialiser(head))
 
     def _open_outputs(self) -> None:
         opened = []
         try:
             for out in self._outputs.values():
-                out.actuator.open()
-                opened.append(out)
+                for actuator in out.actuators:
+                    actuator.open()
+                    opened.append(actuator)
             for pipeline in self._pipelines.values():
                 pipeline.warm()
         except BaseException:
-            for out in opened:
-                out.actuator.close()
+            for actuator in opened:
+                actuator.close()
             raise
 
     # --- the caller's side ------------------------------------------------------
@@ -223,13 +276,18 @@ class Engine:
             at = valid_number(at, name="at")
         point = valid_vector(point, name="point")
         normal = valid_vector(normal, name="normal", unit=True)
-        wired = route.effect.actuator.channel
-        if channel is not None and channel != (wired or 0):  # no channel in the scene: the actuator's first, 0
+        out = self._route[object]
+        if out.spatialiser is not None:
+            if channel is not None and channel not in out.spatialiser.by_channel:
+                raise EffectError(f"object {object!r} plays on the head's channels "
+                                  f"{sorted(out.spatialiser.by_channel)}, not {channel}", source=self.scene.source,
+                                  key="head.sites")
+        elif channel is not None and channel != (route.effect.actuator.channel or 0):
+            # no channel in the scene: the actuator's first, 0
             raise EffectError(
-                f"object {object!r} plays on channel {wired or 0}, not {channel}",
+                f"object {object!r} plays on channel {route.effect.actuator.channel or 0}, not {channel}",
                 source=self.scene.source, key=f"effects.{object}.channel",
             )
-        out = self._route[object]
         job = _Job(object, velocity, at, channel, received, point, normal)
         with self._lock:
             if self._closed:  # checked under the lock: nothing is queued once close() began
@@ -282,14 +340,15 @@ class Engine:
                                           point=job.point, normal=job.normal))
         signal = delivery.output
         limited = delivery.limiter.total > 0
-        if out.limiter is not None:
-            before = out.limiter.report().total
-            signal = Signal.adopt(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)
-            limited = limited or out.limiter.report().total > before
-        if out.actuator.takes_received:
-            out.actuator.play(signal, received=job.received)
+        if out.spatialiser is not None:
+            signal, spread_limited = self._spread(out, job, signal, now)
+            limited = limited or spread_limited
         else:
-            out.actuator.play(signal)
+            if out.limiter is not None:
+                before = out.limiter.report().total
+                signal = Signal.adopt(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)
+                limited = limited or out.limiter.report().total > before
+            _play_on(out.actuator, signal, job.received)
         for note in delivery.notes:
             self._log.event(("note", job.object), f"{job.object}: {note}")
         playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,
@@ -301,6 +360,27 @@ class Engine:
             out.failing = None
             self._last.append(playback.summary())
         return playback
+
+    @staticmethod
+    def _spread(out: _Output, job: _Job, signal: Signal, now: float) -> tuple[Signal, bool]:
+        """Gains and onset delays per site, each site's limiter, and play: every site gets a block of the same
+        length (silent where the impact does not reach), so that file outputs stay aligned. Returns the
+        (sites x samples) signal played and whether a site's limiter acted."""
+        rate = signal.rate_hz
+        placements = out.spatialiser.place(job.point, job.normal, job.channel)
+        shifts = [int(round(p.delay_s * rate)) for p in placements]
+        n = signal.samples.shape[-1]
+        per_site = np.zeros((len(out.sites), n + max(shifts)))
+        for p, shift in zip(placements, shifts):
+            per_site[p.site, shift:shift + n] = signal.samples if p.gain == 1.0 else p.gain * signal.samples
+        limited = False
+        for k, site in enumerate(out.sites):
+            if site.limiter is not None:
+                before = site.limiter.report().total
+                per_site[k] = site.limiter.process(per_site[k], at_s=now)
+                limited = limited or site.limiter.report().total > before
+            _play_on(site.actuator, Signal.adopt(per_site[k], rate), job.received)
+        return Signal.adopt(per_site, rate), limited
 
     def _failed(self, out: _Output, job: _Job, exc: Exception) -> None:
         kind = type(exc).__name__
@@ -348,7 +428,10 @@ class Engine:
                 entry["errors"] = errors
             if failing:
                 entry["failing"] = failing
-            losses = self._outputs[name].actuator.losses()
+            losses = {}
+            for actuator in self._outputs[name].actuators:
+                for reason, n in actuator.losses().items():
+                    losses[reason] = losses.get(reason, 0) + n
             if losses:
                 entry["losses"] = losses
             summary = _latency_summary(lat)
@@ -398,12 +481,13 @@ class Engine:
         return self.stats()
 
     def _close_output(self, out: _Output) -> None:
-        try:
-            out.actuator.close()
-        except Exception as exc:  # close every actuator even if one fails
-            log.warning("closing %s failed: %s", out.actuator.describe(), exc)
-            with self._lock:
-                self._close_errors[out.actuator.describe()] = one_line(str(exc), 200)
+        for actuator in out.actuators:
+            try:
+                actuator.close()
+            except Exception as exc:  # close every actuator even if one fails
+                log.warning("closing %s failed: %s", actuator.describe(), exc)
+                with self._lock:
+                    self._close_errors[actuator.describe()] = one_line(str(exc), 200)
 
     def _cancel_pending(self, out: _Output) -> None:
         n = 0

@@ -67,24 +67,28 @@ def _located(build, effect: Effect, key: str):
         raise type(exc)(str(exc), source=effect.source, key=key) from None
 
 
+def build_actuator(plan: Plan, effect: Effect, device: str | int | None) -> Actuator:
+    """The (unopened) actuator of ``effect``'s section, or the virtual one ``device`` names in its place."""
+    virtual = stand_in(device)
+    context = effect.context(device=None if virtual else device)
+    device_actuator: Actuator = _located(lambda: plan.actuator_cls(plan.actuator_params, context), effect, "actuator")
+    if not virtual:
+        return device_actuator
+    cls, path = virtual
+    # A file named on the command line or in code is the caller's explicit choice (the CLI asks for --force).
+    params = cls.Params(path=str(user_path(path)), overwrite=True) if cls is WavActuator else cls.Params()
+    return cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
+
+
 class Pipeline:
     """Renders and plays impacts for one effect. Thread-safe; use as a context manager."""
 
     def __init__(self, effect: Effect, *, device: str | int | None = None, registry: Registry | None = None):
         self.effect = effect
         self.plan: Plan = check_effect(effect, registry=registry or get_registry())
-        virtual = stand_in(device)
-        context = effect.context(device=None if virtual else device)
+        context = effect.context(device=None if stand_in(device) else device)
         self.model: Model = _located(lambda: self.plan.model_cls(self.plan.model_params, context), effect, "model")
-        device_actuator: Actuator = _located(lambda: self.plan.actuator_cls(self.plan.actuator_params, context),
-                                             effect, "actuator")
-        if virtual:
-            cls, path = virtual
-            # A file named on the command line or in code is the caller's explicit choice (the CLI asks for --force).
-            params = cls.Params(path=str(user_path(path)), overwrite=True) if cls is WavActuator else cls.Params()
-            self.actuator: Actuator = cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
-        else:
-            self.actuator = device_actuator
+        self.actuator: Actuator = build_actuator(self.plan, effect, device)
         spec = self.actuator.spec
         self.limits = effective_limits(spec.limits, effect)
         self.actuator.limits = self.limits
@@ -176,4 +180,4 @@ class Pipeline:
         }
 
 
-__all__ = ["Delivery", "Pipeline", "EffectError"]
+__all__ = ["Delivery", "Pipeline", "EffectError", "build_actuator"]

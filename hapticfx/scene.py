@@ -20,6 +20,11 @@ effect's actuator section (which is then validated for structure only, so a
 scene can reroute an effect written for hardware it lacks). Entries that name
 the same scene actuator share one opened actuator. Building a scene builds
 only the models, plugins, datasets and weights its effects reference.
+
+An optional ``head`` puts several actuators on the head, each a channel of one
+scene actuator (``head: {actuator: helmet, sites: {crown: {position: [0, 0,
+0.13], channel: 0}, ...}}``); entries on that actuator are spread over them by
+where each impact lands (:mod:`hapticfx.spatial`) and name no channel.
 """
 
 from __future__ import annotations
@@ -33,8 +38,9 @@ from .effect import ActuatorSection, Effect, effect_from_mapping, parse_actuator
 from .atomic import user_path
 from .errors import EffectError, preview
 from .params import doc, parse_params
+from .spatial import HeadLayout, parse_head
 
-TOP_KEYS = ("name", "description", "actuators", "effects", "events", "engine")
+TOP_KEYS = ("name", "description", "actuators", "head", "effects", "events", "engine")
 ENTRY_KEYS = ("effect", "inline", "actuator", "channel")
 
 
@@ -77,6 +83,7 @@ class Scene:
     osc: OscSettings | None
     engine: EngineSettings
     description: str = ""
+    head: HeadLayout | None = None  # several actuators on the head (hapticfx.spatial); None: one, as in the paper
 
     @property
     def objects(self) -> list[str]:
@@ -176,6 +183,12 @@ def scene_from_mapping(data: Any, *, source: str, base_dir: Path) -> Scene:
     entries = {
         oid: _entry(oid, raw, source=source, base_dir=base_dir, actuators=actuators) for oid, raw in raw_effects.items()
     }
+    head = parse_head(data["head"], source=source, actuators=actuators) if data.get("head") is not None else None
+    if head is not None:
+        for oid, raw in raw_effects.items():
+            if isinstance(raw, dict) and raw.get("actuator") == head.actuator and "channel" in raw:
+                raise EffectError(f"actuator {head.actuator!r} is the head's: its channels are the sites under "
+                                  "head.sites, not chosen per effect", source=source, key=f"effects.{oid}.channel")
 
     events = data.get("events") or {}
     if not isinstance(events, dict):
@@ -185,7 +198,7 @@ def scene_from_mapping(data: Any, *, source: str, base_dir: Path) -> Scene:
         raise EffectError(f"unknown event source {preview(unknown[0])}; allowed: osc", source=source, key="events")
     osc = parse_params(OscSettings, events["osc"], source=source, key="events.osc") if "osc" in events else None
     engine = parse_params(EngineSettings, data.get("engine"), source=source, key="engine")
-    return Scene(name, source, entries, osc, engine, description)
+    return Scene(name, source, entries, osc, engine, description, head)
 
 
 def load_scene(path: str | Path) -> Scene:
