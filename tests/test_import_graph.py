@@ -134,3 +134,61 @@ def test_each_data_concern_imports_only_what_it_builds_on(concern):
         if _concern(dep) in CONCERNS and _concern(dep) not in MAY_IMPORT[concern] | {concern}
     )
     assert wrong == []
+
+
+# Packages that only measure or fuzz. Nothing a user's impact runs through imports them; the wiring of
+# the command line (the core's `builtins/` and `cli/`, a plugin's `plugin`, `cli` and `commands`
+# modules) registers the bench commands and imports them inside those commands only.
+MEASURING = ("hapticfx.bench", "hapticfx.fuzz", "hapticfx.evaluation",
+             "hapticfx_soundcard.bench", "hapticfx_solenoid.bench", "hapticfx_neural.bench")
+
+
+def _within(module: str, packages) -> bool:
+    return any(module == p or module.startswith(p + ".") for p in packages)
+
+
+def _wiring(module: str) -> bool:
+    parts = module.split(".")
+    return parts[:2] in (["hapticfx", "builtins"], ["hapticfx", "cli"]) or parts[-1] in ("commands", "plugin", "cli")
+
+
+def _top_level_imports(name: str) -> set[str]:
+    """Imports made when the module itself is imported (not those inside its functions)."""
+    path = _modules()[name]
+    module = ast.parse(path.read_text(), filename=str(path))
+    top = ast.Module(body=[n for n in module.body if not isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef,
+                                                                         ast.ClassDef))], type_ignores=[])
+    return {dep for dep in GRAPH[name] if dep in _imports_in(top, name)}
+
+
+def _imports_in(tree: ast.Module, name: str) -> set[str]:
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            package = name if _modules()[name].name == "__init__.py" else name.rpartition(".")[0]
+            base = package.split(".")[: len(package.split(".")) - node.level + 1] if node.level else []
+            target = ".".join(base + ([node.module] if node.module else []))
+            found.add(target)
+            found.update(f"{target}.{a.name}" for a in node.names)
+    return found
+
+
+def test_the_measuring_packages_are_in_the_graph():
+    for package in MEASURING:
+        assert package in GRAPH, package
+
+
+def test_no_product_module_imports_a_measuring_one():
+    wrong = sorted(f"{name} imports {dep}" for name, deps in GRAPH.items()
+                   if not _within(name, MEASURING) and not _wiring(name)
+                   for dep in deps if _within(dep, MEASURING))
+    assert wrong == []
+
+
+def test_the_command_line_wiring_imports_measuring_code_only_inside_a_bench_command():
+    wrong = sorted(f"{name} imports {dep} when it is imported"
+                   for name in GRAPH if _wiring(name) and not _within(name, MEASURING)
+                   for dep in _top_level_imports(name) if _within(dep, MEASURING))
+    assert wrong == []

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hapticfx.cli import main
-from hapticfx.droprig import contact_bench
+from hapticfx.bench import contact as contact_bench
 from hapticfx.data.dataset import open_dataset
 
 

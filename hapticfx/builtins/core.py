@@ -26,10 +26,11 @@ def register_actuators(register):
 
 @hookimpl
 def register_commands(app, bench):
-    from ..cli import bench_fuzz, bench_interpolators, bench_render, bench_startup, commands
+    from ..bench import fuzz, interpolators, render, startup
+    from ..cli import commands
 
     commands.register(app)
-    bench_render.register(bench)
-    bench_interpolators.register(bench)
-    bench_startup.register(bench)
-    bench_fuzz.register(bench)
+    render.register(bench)
+    interpolators.register(bench)
+    startup.register(bench)
+    fuzz.register(bench)

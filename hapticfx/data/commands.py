@@ -166,7 +166,7 @@ def bench_reducers(
     """Table 4 analogue (spectral/temporal match per object and reducer) and time per reduction."""
     from ..registry import get_registry
     from ..timing import table
-    from ..processing.reducer_bench import METRICS, score, time_reducers
+    from ..bench.reducers import METRICS, score, time_reducers
     from .dataset import open_dataset
 
     ds = open_dataset(dataset)

@@ -88,7 +88,7 @@ def bench_contact(
 ):
     """Contact physics: the contact model's render time over stiffness, mass and velocity against its
     50 ms budget, then a work-precision table of the integration (soft k=1e5 to very stiff k=1e10)."""
-    from . import contact_bench
+    from ..bench import contact as contact_bench
 
     names = [] if solvers.strip() == "none" else [s.strip() for s in solvers.split(",") if s.strip()]
     known = {"RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"}

@@ -68,8 +68,8 @@ def table(
 
 
 def register(app: typer.Typer, bench: typer.Typer) -> None:
-    from .bench_table import bench_table
-    from .bench_threads import threads
+    from .bench.table import bench_table
+    from .bench.threads import threads
 
     app.command("train")(train)
     app.command("table")(table)

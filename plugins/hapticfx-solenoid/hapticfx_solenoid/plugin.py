@@ -25,7 +25,7 @@ def register_commands(app, bench):
     ):
         """Whether a silent solenoid board delays a WAV output in the same engine, and how long close() takes;
         against a healthy board and against the WAV output alone (no board), in turns."""
-        from .isolation import BOARDS, run_once, table
+        from .bench.isolation import BOARDS, run_once, table
 
         results: dict[str, list] = {board: [] for board in BOARDS}
         for i in range(repeats):

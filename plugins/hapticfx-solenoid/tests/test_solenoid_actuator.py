@@ -221,7 +221,7 @@ def test_emulator_command_line(tmp_path):
 
 
 def test_bench_round_trips():
-    from hapticfx_solenoid.bench import round_trips
+    from hapticfx_solenoid.bench.roundtrip import round_trips
 
     times = round_trips(20)
     assert len(times) == 20 and all(0 < t < 1.0 for t in times)

@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from hapticfx_solenoid.bench import emulator_process
+from hapticfx_solenoid.bench.roundtrip import emulator_process
 
 EFFECT = Path(__file__).resolve().parents[1] / "effects" / "falling_brick_solenoid.yaml"
 
@@ -45,7 +45,7 @@ def test_missing_port_is_one_line_and_exit_2():
 
 
 def test_bench_isolation_a_silent_board_loses_nothing_on_the_other_output():
-    from hapticfx_solenoid.isolation import run_once, table
+    from hapticfx_solenoid.bench.isolation import run_once, table
 
     alone, healthy, silent = (run_once(board, 12, 0.02) for board in ("none", "healthy", "silent"))
     assert alone["helmet"]["rendered"] == healthy["helmet"]["rendered"] == silent["helmet"]["rendered"] == 12

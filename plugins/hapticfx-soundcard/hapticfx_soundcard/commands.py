@@ -57,7 +57,7 @@ def _latency_section(effects: list[Path], impacts: int, latency, max_latency: fl
     from hapticfx.osc import OscBridge, encode_impact
     from hapticfx.params import BuildContext
 
-    from . import bench
+    from .bench import output as bench
     from .actuator import VibroTransducer
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -221,7 +221,7 @@ def bench_output(
     against the block's period. Recovery: a private server (.ci/soundserver.sh) stalled
     for 1 s or killed and restarted under a playing actuator.
     """
-    from . import bench
+    from .bench import output as bench
 
     paths = [Path(p) for p in (effects or DEFAULT_EFFECTS)]
     for p in paths:
@@ -271,7 +271,7 @@ def bench_output(
 
     typer.echo("\n## solenoid command round trip (pseudo-terminal + emulator)\n")
     try:
-        from hapticfx_solenoid.bench import round_trips as solenoid_round_trips
+        from hapticfx_solenoid.bench.roundtrip import round_trips as solenoid_round_trips
     except ImportError:
         typer.echo("the solenoid plugin (hapticfx-solenoid) is not installed; skipped")
         return

@@ -30,6 +30,6 @@ def start_soundserver(runtime_dir: str | None = None) -> str:
 
 def stop_soundserver(runtime_dir: str) -> None:
     """Stop the server (and its keep-alive) that start_soundserver started in ``runtime_dir``."""
-    from hapticfx_soundcard.virtualserver import stop
+    from hapticfx_soundcard.bench.virtualserver import stop
 
     stop(runtime_dir)

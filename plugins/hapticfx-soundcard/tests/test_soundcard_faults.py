@@ -1,6 +1,6 @@
 """Faults on a real sound server: it dies, stalls, or its device disappears mid-stream, and comes back.
 
-Each runs an embedding program (hapticfx_soundcard.faultprobe) against its own PulseAudio
+Each runs an embedding program (hapticfx_soundcard.bench.faultprobe) against its own PulseAudio
 instance, so the shared test server is not touched, and checks: a clear
 DeviceError within 1 s, play() during the outage raises at once, what was sounding
 is counted as lost, another actuator keeps working, close() returns, the program
@@ -27,7 +27,7 @@ def run_child(mode, tmp_path, queue=0.0):
     try:
         pid = (Path(runtime) / "pulse" / "pid").read_text().strip()
         env = {**os.environ, "XDG_RUNTIME_DIR": runtime, "HAPTICFX_XDG": runtime, "HAPTICFX_SOUNDSERVER": str(SCRIPT)}
-        done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid, str(queue)], env=env,
+        done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.bench.faultprobe", mode, pid, str(queue)], env=env,
                               capture_output=True, text=True, timeout=60)
     finally:
         stop_soundserver(runtime)

@@ -12,7 +12,7 @@ from hapticfx.params import BuildContext
 from hapticfx.signal import Signal
 
 from hapticfx_soundcard.actuator import Haptuator, VibroTransducer
-from hapticfx_soundcard.bench import LoopbackRecorder
+from hapticfx_soundcard.bench.output import LoopbackRecorder
 
 pytestmark = pytest.mark.soundserver
 RATE = 48000

@@ -96,7 +96,7 @@ def test_bench_output_sets_each_send_against_the_floor_at_the_same_buffer():
     """A buffer lengthened mid-run (8.7 -> 30 ms): one table per buffer, each with its own floor."""
     import numpy as np
 
-    from hapticfx_soundcard.bench import TimedPath
+    from hapticfx_soundcard.bench.output import TimedPath
     from hapticfx_soundcard.commands import _latency_tables
 
     buffers = [0.0087] * 6 + [0.03] * 4

@@ -16,7 +16,7 @@ from hapticfx.params import BuildContext
 from hapticfx.signal import Signal
 
 from hapticfx_soundcard.actuator import VibroTransducer
-from hapticfx_soundcard.bench import LoopbackRecorder, click, onsets
+from hapticfx_soundcard.bench.output import LoopbackRecorder, click, onsets
 from hapticfx_soundcard.mixer import QUANTUM, QueueMixer
 from hapticfx_soundcard.queuestream import SOONEST_S
 

@@ -5,9 +5,9 @@ import signal
 import sys
 import time
 
-from hapticfx_soundcard import stallprobe
-from hapticfx_soundcard.bench import Capture, Rounds
-from hapticfx_soundcard.stallprobe import Stall, StallProbe
+from hapticfx_soundcard.bench import stallprobe
+from hapticfx_soundcard.bench.output import Capture, Rounds
+from hapticfx_soundcard.bench.stallprobe import Stall, StallProbe
 
 
 def test_a_probe_that_is_not_run_reports_the_stall_on_its_cpu():

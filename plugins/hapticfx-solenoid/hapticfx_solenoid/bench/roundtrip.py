@@ -1,6 +1,6 @@
 """Round-trip timing of the solenoid protocol: host pyserial <-> emulator process over a pty.
 
-``hapticfx bench output`` calls :func:`round_trips`. ``python -m hapticfx_solenoid.bench``
+``hapticfx bench output`` calls :func:`round_trips`. ``python -m hapticfx_solenoid.bench.roundtrip``
 prints the fuller table of docs/benchmarks.md#solenoid-details (with baselines from the same run).
 """
 
@@ -24,7 +24,7 @@ def round_trips(n: int) -> list[float]:
     ``serial.Serial`` and handshakes first, so the figures are steady-state
     round trips (write, the emulator's select/read/reply, pyserial's read).
     """
-    from .link import SerialLink
+    from ..link import SerialLink
 
     if n < 1:
         raise ValueError(f"n must be >= 1, got {n}")
@@ -84,8 +84,8 @@ def _loop_echo(n: int) -> list[float]:
 
 def _thread_pings(n: int) -> list[float]:
     """The emulator in a thread of this process (what the 'emulator' port and the tests use)."""
-    from .emulator import PtyEmulator
-    from .link import SerialLink
+    from ..emulator import PtyEmulator
+    from ..link import SerialLink
 
     with PtyEmulator() as emulator:
         link = SerialLink(emulator.port, timeout_s=1.0)
@@ -102,7 +102,7 @@ def _plays(n: int) -> list[float]:
 
     from hapticfx.signal import Signal
 
-    from .actuator import SolenoidActuator
+    from ..actuator import SolenoidActuator
 
     pulse = Signal(np.r_[np.zeros(5), np.full(2, 0.8), np.zeros(20)], 1000.0)
     times = []
@@ -120,7 +120,7 @@ def _plays(n: int) -> list[float]:
 
 def _fault_times(kind: str, repeats: int) -> list[float]:
     """Seconds from open() to the DeviceError when the emulator process misbehaves."""
-    from .actuator import SolenoidActuator
+    from ..actuator import SolenoidActuator
 
     times = []
     for _ in range(repeats):

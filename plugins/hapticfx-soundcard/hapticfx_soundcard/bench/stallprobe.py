@@ -12,7 +12,7 @@ notes every wake-up later than ``threshold``. The host's own account of the time
 took each CPU away (``steal`` in ``/proc/stat``) is read at both ends; on the project
 machine it accounts for part of the stalls only (docs/benchmarks.md).
 
-Run as ``python -m hapticfx_soundcard.stallprobe CPU PERIOD_S THRESHOLD_S``: it prints
+Run as ``python -m hapticfx_soundcard.bench.stallprobe CPU PERIOD_S THRESHOLD_S``: it prints
 ``ready POLICY`` once running and, when its stdin closes, one JSON line with the
 stalls (monotonic start time, seconds the thread was not run).
 """

@@ -16,12 +16,12 @@ import numpy as np
 from hapticfx.errors import DeviceError
 from hapticfx.interfaces import SafetyLimits
 
-from .devices import import_sounddevice
-from .mixer import Mixer
+from ..devices import import_sounddevice
+from ..mixer import Mixer
 from .stallprobe import Stall, StallProbe
 
 if TYPE_CHECKING:
-    from .actuator import SoundCardActuator
+    from ..actuator import SoundCardActuator
 
 CLICK_LEVEL = 0.5
 THRESHOLD = 0.25
@@ -231,7 +231,7 @@ def block_wall_times(voices: int, block: int, *, rate_hz: float = 48000.0, secon
 
 def recovery_runs(mode: str, repeats: int, *, script: str, queue: float = 0.0,
                   progress: Callable[[str], None] | None = None) -> list[dict[str, str]]:
-    """Run :mod:`hapticfx_soundcard.faultprobe` ``repeats`` times in ``mode`` against a server of its own,
+    """Run :mod:`hapticfx_soundcard.bench.faultprobe` ``repeats`` times in ``mode`` against a server of its own,
     its actuator with ``queue`` (0: the PortAudio stream)."""
     import os
     import subprocess
@@ -248,7 +248,7 @@ def recovery_runs(mode: str, repeats: int, *, script: str, queue: float = 0.0,
             virtualserver.start(runtime, script)
             try:
                 pid = (Path(runtime) / "pulse" / "pid").read_text().strip()
-                done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.faultprobe", mode, pid, str(queue)], env=env,
+                done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.bench.faultprobe", mode, pid, str(queue)], env=env,
                                       capture_output=True, text=True, timeout=120)
             finally:
                 virtualserver.stop(runtime)

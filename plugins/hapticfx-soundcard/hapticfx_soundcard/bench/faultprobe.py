@@ -1,4 +1,4 @@
-"""A program whose sound server fails under a playing actuator: ``python -m hapticfx_soundcard.faultprobe MODE PID [QUEUE]``.
+"""A program whose sound server fails under a playing actuator: ``python -m hapticfx_soundcard.bench.faultprobe MODE PID [QUEUE]``.
 
 Run by the fault tests and by ``hapticfx bench output``, each against a PulseAudio
 server of its own (PID). MODE is kill | unload | stall (the server stays broken),
@@ -25,7 +25,7 @@ from hapticfx.registry import get_registry
 from hapticfx.signal import Signal
 
 from hapticfx_soundcard.actuator import VibroTransducer
-from hapticfx_soundcard.bench import LoopbackRecorder, click, onsets
+from hapticfx_soundcard.bench.output import LoopbackRecorder, click, onsets
 
 mode, server_pid = sys.argv[1], int(sys.argv[2])
 queue = float(sys.argv[3]) if len(sys.argv) > 3 else 0.0

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import emulator_process
+from .roundtrip import emulator_process
 
 BOARDS = {"none": "none (the WAV output alone)", "healthy": "healthy", "silent": "silent after the handshake"}
 HELMET = "  helmet: {{type: wav, path: {wav}, rate_hz: 48000, overwrite: true}}\n"

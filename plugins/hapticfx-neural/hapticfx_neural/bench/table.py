@@ -34,9 +34,9 @@ def bench_table(
     from hapticfx.params import BuildContext
     from hapticfx.registry import get_registry
 
-    from . import checkpoint
-    from .interpolator import require_torch
-    from .samples import stack_triples
+    from .. import checkpoint
+    from ..interpolator import require_torch
+    from ..samples import stack_triples
 
     require_torch("`hapticfx bench table`")
     ds = open_dataset(dataset)

@@ -28,10 +28,10 @@ from typing import Callable
 import numpy as np
 
 from ..objects import PAPER_OBJECTS
-from .contact import DropScene
-from .hertz import G
-from .state import JY, Y
-from .synth import Drop, Rig, scene_for
+from ..droprig.contact import DropScene
+from ..droprig.hertz import G
+from ..droprig.state import JY, Y
+from ..droprig.synth import Drop, Rig, scene_for
 
 SOLVERS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 RTOLS = (1e-4, 1e-6, 1e-8)

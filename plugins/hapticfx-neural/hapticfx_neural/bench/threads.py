@@ -25,7 +25,7 @@ SHIPPED_CONFIG = Path(__file__).resolve().parent / "configs" / "helmet-drops-con
 def _inference_times(net, meta, data, counts: list[int], repeat: int) -> dict[int, list[float]]:
     import torch
 
-    from .training import predict
+    from ..training import predict
 
     out: dict[int, list[float]] = {n: [] for n in counts}
     for n in counts:  # warm-up at every count
@@ -42,7 +42,7 @@ def _inference_times(net, meta, data, counts: list[int], repeat: int) -> dict[in
 
 
 def _epoch_times(cfg, data, counts: list[int], epochs: int) -> dict[int, list[float]]:
-    from .training import train_network
+    from ..training import train_network
 
     out: dict[int, list[float]] = {n: [] for n in counts}
     for _ in range(epochs):
@@ -80,8 +80,8 @@ def threads(
 
     from hapticfx.data.dataset import open_dataset
 
-    from .config import load_config
-    from .run import dataset_triples
+    from ..config import load_config
+    from ..run import dataset_triples
 
     try:
         ns = [int(x) for x in counts.split(",") if x.strip()]
@@ -108,8 +108,8 @@ def threads(
 
 
 def _measure(cfg, dataset, data, ns: list[int], repeat: int, epochs: int) -> list[tuple[str, dict[int, Timing]]]:
-    from .checkpoint import default_weights
-    from .training import load_network
+    from ..checkpoint import default_weights
+    from ..training import load_network
 
     results: list[tuple[str, dict[int, Timing]]] = []
     weights = default_weights(dataset.name, cfg.reducer, cfg.interpolator)

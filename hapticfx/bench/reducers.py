@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..timing import Timing
-from . import metrics
+from ..processing import metrics
 
 if TYPE_CHECKING:  # processing never imports the dataset package: the dependency runs the other way
     from ..data.dataset import Dataset
