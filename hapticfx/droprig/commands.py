@@ -120,7 +120,7 @@ def bench_synth(
 ):
     """Parallel simulation: `data synth`'s drops (wood beam, same seed) serially and through joblib with
     --jobs processes; median wall time [min, max], speed-up over serial, and whether the arrays match."""
-    from . import synth_bench
+    from ..bench import synth as synth_bench
 
     counts = [int(x) for x in _floats(jobs, option="--jobs")]
     if any(n < 1 or n > 256 for n in counts):

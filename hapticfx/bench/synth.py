@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ..objects import PAPER_OBJECTS
-from .synth import PAPER_VELOCITIES, record_drops
+from ..droprig.synth import PAPER_VELOCITIES, record_drops
 
 
 def run(*, jobs: list[int], drops: int, velocities: int, repeats: int, object_id: str = "wood-beam",
