@@ -36,6 +36,9 @@ def synth(
                                 help="Processes simulating drops in parallel (joblib, loky); 0: every core. "
                                      "Any value gives the same recordings."),
     force: bool = typer.Option(False, "--force", help="Replace OUT if it exists."),
+    heldout: Optional[str] = typer.Option(None, "--heldout", help="Simulate a held-out evaluation set by name "
+                                          "(or 'all') into the cache `heldout:NAME` reads (or into OUT); see "
+                                          "hapticfx/datasets/heldout/README.md."),
     spec: Optional[Path] = typer.Option(None, "--spec", help="YAML spec: other objects (mass, size, material), "
                                         "velocities per object, drops, seed, helmet and sensor (see docs/physics.md; "
                                         "not with --objects, --velocities, --drops, --seed)."),
@@ -49,6 +52,22 @@ def synth(
     from . import synth as sim
 
     started = time.perf_counter()
+    if heldout is not None:
+        from ..evaluation import heldout as held
+
+        if builtin or spec is not None or objects != "all" or velocities or drops != sim.BUILTIN_DROPS \
+                or seed != sim.BUILTIN_SEED:
+            raise DatasetError("--heldout simulates a fixed spec; it takes no --builtin, --spec, --objects, "
+                               "--velocities, --drops or --seed")
+        names = list(held.HELDOUT) if heldout == "all" else [heldout]
+        if out is not None and len(names) > 1:
+            raise DatasetError("give one --heldout NAME with OUT (or no OUT for 'all': they go to the cache)")
+        for name in names:
+            held.spec_path(name)  # an unknown name fails before any simulation
+        for name in names:
+            typer.echo(f"{name}: {held.ensure(name, workers=workers, out=out, progress=say)}")
+        typer.echo(f"done in {time.perf_counter() - started:.1f} s")
+        return
     if builtin:
         if out is not None or objects != "all" or velocities or drops != sim.BUILTIN_DROPS or seed != sim.BUILTIN_SEED:
             raise DatasetError("--builtin regenerates the packaged dataset exactly; it takes no OUT, --objects, "

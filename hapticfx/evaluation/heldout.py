@@ -1,0 +1,70 @@
+"""The held-out drop sets: specs fixed in advance, simulated on first use into a cache.
+
+Each set is a ``data synth`` spec shipped in ``hapticfx/datasets/heldout/NAME.yaml``,
+drawn once by :func:`hapticfx.droprig.draws.draw_spec` with the seeds below (the
+test ``tests/test_heldout.py`` checks the shipped files still equal those draws).
+``heldout:NAME`` names one as a dataset: it is simulated the first time it is used
+(about a minute on 2 cores) into ``$HAPTICFX_CACHE/datasets/NAME-<digest of the spec>``
+(default ``~/.cache/hapticfx``), so an edited spec never reuses a stale set.
+``hapticfx data synth --heldout all`` makes them all ahead of time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+from typing import Callable
+
+from ..errors import DatasetError, preview
+
+PREFIX = "heldout:"
+SPEC_DIR = Path(__file__).resolve().parent.parent / "datasets" / "heldout"
+
+# name -> the arguments of draw_spec that made it (fixed before any method was scored on it)
+HELDOUT: dict[str, dict] = {
+    "heldout-irregular": {"draw_seed": 2_600_001, "sim_seed": 2_610_001, "spacing": "irregular", "drops": 10},
+    "heldout-3drops": {"draw_seed": 2_600_002, "sim_seed": 2_610_002, "drops": 3},
+    "heldout-even-height": {"draw_seed": 2_600_003, "sim_seed": 2_610_003, "spacing": "even-height"},
+}
+
+
+def spec_path(name: str) -> Path:
+    if name not in HELDOUT:
+        raise DatasetError(f"no held-out set {preview(name)}; known: {', '.join(HELDOUT)}")
+    return SPEC_DIR / f"{name}.yaml"
+
+
+def cache_root() -> Path:
+    return Path(os.environ.get("HAPTICFX_CACHE") or Path.home() / ".cache" / "hapticfx").expanduser()
+
+
+def dataset_path(name: str) -> Path:
+    """Where the simulated set of ``name`` lives (whether or not it has been made yet)."""
+    digest = hashlib.sha256(spec_path(name).read_bytes()).hexdigest()[:10]
+    return cache_root() / "datasets" / f"{name}-{digest}"
+
+
+def ensure(name: str, *, workers: int | None = None, out: Path | None = None,
+           progress: Callable[[str], None] | None = None) -> Path:
+    """The dataset of held-out set ``name``, simulated first if it is not cached (or written to ``out``)."""
+    from ..droprig.spec import load_spec
+    from ..droprig.synth import synth_dataset
+
+    path = out or dataset_path(name)
+    if (path / "dataset.json").is_file():
+        return path
+    spec = load_spec(spec_path(name))
+    if progress:
+        progress(f"{name}: simulating {path} (first use; cached afterwards)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return synth_dataset(path, spec.objects, spec.velocities, drops=spec.drops, seed=spec.seed, name=name, rig=spec.rig,
+                         workers=workers, overwrite=out is not None, progress=progress,
+                         command=f"hapticfx data synth --heldout {name}")
+
+
+def resolve(ref: str, *, progress: Callable[[str], None] | None = None) -> str:
+    """``ref`` with ``heldout:NAME`` replaced by the cached dataset's path (made on first use)."""
+    if not ref.startswith(PREFIX):
+        return ref
+    return str(ensure(ref[len(PREFIX):], progress=progress))
