@@ -15,7 +15,7 @@ from hapticfx.data.dataset import open_dataset
 from hapticfx.data.toy import toy_recordings
 from hapticfx.errors import DatasetError, EffectError
 from hapticfx.evaluation import measures
-from hapticfx.evaluation.folds import lovo_rounds, paper_rounds
+from hapticfx.evaluation.folds import looo_rounds, lovo_rounds, paper_rounds
 from hapticfx.evaluation.report import summarise
 from hapticfx.evaluation.runner import methods_from, run_evaluation
 from hapticfx.objects import PAPER_OBJECTS
@@ -70,6 +70,33 @@ def test_lovo_predicts_every_interior_velocity_of_every_object_once(uneven):
         lovo_rounds({"x": ProfileBank("x", "max-min", 1000.0, np.array([1.0, 2.0]), np.ones((2, 4)))})
     with pytest.raises(DatasetError, match=r"the paper protocol needs '[a-z-]*' recorded at 2.8.*use --protocol lovo"):
         paper_rounds(banks)
+
+
+def test_looo_never_trains_on_the_object_it_predicts(uneven):
+    banks = {o: uneven.bank(o, "max-min") for o in uneven.objects}
+    rounds = looo_rounds(banks)
+    assert len(rounds) == 4  # two per object: odd and even interior velocities
+    seen = sorted((f.object, f.velocity) for r in rounds for f in r.folds)
+    assert seen == sorted((o, float(v)) for o, b in banks.items() for v in b.velocities[1:-1])
+    for r in rounds:
+        (obj,) = {f.object for f in r.folds}
+        assert r.targets[obj] == [] and all(r.targets[o] for o in banks if o != obj)
+        idx = [banks[obj].index_of(f.velocity) for f in r.folds]
+        assert all(b - a >= 2 for a, b in zip(idx, idx[1:]))  # every held-out velocity keeps both neighbours
+    results = run_evaluation(uneven, "max-min", methods_from(["ensemble"]), protocol="looo", repeats=5,
+                             echo=lambda m: None)
+    assert len(results["methods"]["ensemble"]["folds"]) == 6 and results["methods"]["ensemble"]["error"] is None
+
+
+def test_ensemble_chooses_its_trim_on_training_targets_only(uneven):
+    from hapticfx.data.training import training_data
+    from hapticfx.interpolators.ensemble import FALLBACK_TRIM, choose_trim
+
+    data = training_data(uneven, "max-min", targets={o: [] for o in uneven.objects})
+    assert choose_trim(data) == (FALLBACK_TRIM, {})
+    one = training_data(uneven, "max-min", targets={"wood-beam": [2.6], "steel-plate": []})
+    every = training_data(uneven, "max-min")
+    assert choose_trim(one)[1] != choose_trim(every)[1]
 
 
 def test_run_scores_every_fold_and_ratios_are_paired(uneven):

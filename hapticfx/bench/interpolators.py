@@ -13,12 +13,14 @@ from ..progress import say
 
 
 def interpolators(
-    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="Dataset path or builtin:NAME."),
+    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="Dataset path, builtin:NAME or heldout:NAME (a held-out set, simulated on first use; "
+                           "see hapticfx/datasets/heldout/README.md)."),
     reducer: str = typer.Option("max-min", "--reducer", help="Which bank of the dataset."),
     methods: str = typer.Option("linear,ensemble", "--methods", help="Comma-separated rows: interpolator names, or "
                                 "rows named in --config. linear is always included: every ratio is against it."),
     protocol: str = typer.Option("lovo", "--protocol", help="lovo: leave each interior velocity of every object out "
-                                 "in turn (any dataset); paper: the paper's split (train 2.80, 3.13, 3.43, 4.85, "
+                                 "in turn (any dataset); looo: leave each object out in turn (no training target from it; "
+                                 "its interior velocities predicted from its neighbours); paper: the paper's split (train 2.80, 3.13, 3.43, 4.85, "
                                  "5.05; test 3.96, 4.43 m/s)."),
     config: Optional[Path] = typer.Option(None, "--config", help="YAML: row -> {interpolator, options, model, "
                                           "training} (e.g. network sizes; see docs/neural.md)."),
@@ -42,7 +44,9 @@ def interpolators(
     rows = [Method(r.row, r.interpolator, r.options,
                    {**r.fit, "training": {**training, **r.fit.get("training", {})}} if training else r.fit)
             for r in rows]
-    ds = open_dataset(dataset)
+    from ..evaluation.heldout import resolve
+
+    ds = open_dataset(resolve(dataset, progress=say))
     if reducer not in ds.reducers():
         raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
     echo = say  # progress on stderr, tables on stdout

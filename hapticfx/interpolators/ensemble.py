@@ -71,13 +71,17 @@ def _matching_drops(bank, drops) -> np.ndarray:
 
 
 def choose_trim(data: TrainingData) -> tuple[float, dict[float, float]]:
-    """The trim with the lowest mean leave-one-velocity-out RMSE on ``data`` (and every trim's score)."""
+    """The trim with the lowest mean leave-one-velocity-out RMSE on ``data``'s training targets (and every
+    trim's score)."""
     scores = {t: [] for t in TRIMS}
     for obj, bank in data.banks.items():
         drops = _matching_drops(bank, data.drops[obj])
         cs = {t: centres(drops, t) for t in TRIMS}
         reps = bank.profiles
+        targets = None if data.targets is None else data.targets.get(obj, bank.velocities[1:-1])
         for i in range(1, len(bank) - 1):
+            if targets is not None and not np.isclose(targets, bank.velocities[i], rtol=0, atol=1e-9).any():
+                continue  # not a training target (for example an object left out)
             w = (bank.velocities[i] - bank.velocities[i - 1]) / (bank.velocities[i + 1] - bank.velocities[i - 1])
             blend = (1 - w) * reps[i - 1] + w * reps[i + 1]
             for t, c in cs.items():
