@@ -268,9 +268,24 @@ def effect_from_mapping(data: Any, *, source: str, base_dir: Path) -> Effect:
     return Effect(name, object_id, info, velocity, model, actuator, source, base_dir, description)
 
 
-def load_effect(path: str | Path) -> Effect:
-    """Read and validate the structure of an effect file."""
+def haptic_file_effect(path: Path, description: str = "") -> Effect:
+    """The effect a haptic file stands for: its ``haptic-file`` model on the default actuator (a vibro-transducer)."""
     path = Path(path)
+    return Effect(name=path.name, object_id="haptic-file", object_info=None, velocity_mps=0.0,
+                  model=Section("haptic-file", {"file": str(path.resolve())}), actuator=ActuatorSection("vibro-transducer", {}),
+                  source=str(path), base_dir=path.resolve().parent, description=description)
+
+
+def load_effect(path: str | Path) -> Effect:
+    """Read and validate the structure of an effect file; a haptic file (``.haptic``, ``.ahap``, ...) stands for
+    an effect that plays it (:mod:`hapticfx.formats.effect`)."""
+    path = Path(path)
+    if path.suffix.lower() not in (".yaml", ".yml"):
+        from .formats import format_for
+
+        fmt = format_for(path)
+        if fmt is not None:
+            return haptic_file_effect(path, fmt.description)
     return effect_from_mapping(read_yaml(path), source=str(path), base_dir=path.resolve().parent)
 
 

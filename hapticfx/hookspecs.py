@@ -41,6 +41,11 @@ def register_actuators(register: Register) -> None:
     """Register actuators (output devices) by the ``type`` name effect files use."""
 
 
+@hookspec
+def register_formats(register: Register) -> None:
+    """Register platform haptic file formats (:class:`~hapticfx.formats.Format`) by ``hapticfx export --format`` name."""
+
+
 # --- command line: called once when the ``hapticfx`` CLI starts ------------------
 
 

@@ -20,7 +20,7 @@ import pluggy
 from . import hookspecs
 from .errors import PluginError
 
-KINDS = ("reducer", "interpolator", "model", "actuator")
+KINDS = ("reducer", "interpolator", "model", "actuator", "format")
 ALLOW_ENV = "HAPTICFX_PLUGINS"
 
 # What the project's own plugin distributions register, to name the one to install when a name is
@@ -33,7 +33,7 @@ FIRST_PARTY = {
        for n in ("convbilstm", "lstm", "bilstm", "lstm-sae", "bilstm-ed", "convlstm-ed")},
 }
 BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data", "hapticfx.builtins.physics", "hapticfx.builtins.scene",
-                   "hapticfx.builtins.study")
+                   "hapticfx.builtins.study", "hapticfx.builtins.formats")
 ENTRY_POINT_GROUP = "hapticfx"
 
 

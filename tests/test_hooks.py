@@ -139,6 +139,41 @@ def test_hook_register_actuators():
         reg.get("actuator", "nope")
 
 
+def test_hook_register_formats(tmp_path):
+    import numpy as np
+
+    from hapticfx.formats import Decoded, Format
+    from hapticfx.signal import Signal
+
+    class Raw(Format):
+        name, suffixes, holds = "raw", (".raw",), frozenset({"waveform"})
+
+        def write(self, path, signal, options):
+            path.write_bytes(signal.samples.astype("<f8").tobytes())
+
+        def read(self, path, device, *, rate_hz):
+            return Decoded(Signal(np.frombuffer(path.read_bytes(), "<f8"), rate_hz))
+
+    class P:
+        @hookspecs.hookimpl
+        def register_formats(self, register):
+            register("raw", Raw)
+
+    reg = _registry_with(P())
+    assert {"haptic", "ahap", "android", "hjif", "raw"} <= set(reg.names("format"))
+    from hapticfx.formats import format_for
+
+    assert format_for(tmp_path / "x.RAW", reg).name == "raw" and format_for(tmp_path / "x.haptic", reg).name == "haptic"
+
+    class Q:
+        @hookspecs.hookimpl
+        def register_formats(self, register):
+            register("haptic", Raw)
+
+    with pytest.raises(PluginError, match="format 'haptic' is registered twice"):
+        _registry_with(Q())
+
+
 def test_hook_register_commands():
     import typer
     from typer.testing import CliRunner

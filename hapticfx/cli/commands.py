@@ -13,6 +13,7 @@ from .show import JSON_HELP, show
 
 VELOCITY_HELP = "Impact velocity in m/s (default: the effect's velocity_mps)."
 OBJECT_HELP = "Object id (default: the effect's object)."
+HAPTIC_FILE_HELP = "or a haptic file (.haptic, .ahap, .android.json, .hjif: docs/formats.md)."
 
 
 def _device(value: Optional[str]):
@@ -57,7 +58,7 @@ def _summary(pipeline, delivery, destination: str) -> str:
 
 
 def play(
-    effect: Path = typer.Argument(..., help="Effect file (YAML), e.g. effects/falling_brick.yaml."),
+    effect: Path = typer.Argument(..., help=f"Effect file (YAML), e.g. effects/falling_brick.yaml, {HAPTIC_FILE_HELP}"),
     velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help=VELOCITY_HELP),
     object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
     device: Optional[str] = typer.Option(
@@ -106,7 +107,7 @@ def play(
 
 
 def render(
-    effect: Path = typer.Argument(..., help="Effect file (YAML)."),
+    effect: Path = typer.Argument(..., help=f"Effect file (YAML) {HAPTIC_FILE_HELP}"),
     out: Path = typer.Option(..., "--out", "-o", help="Output file: .wav (actuator signal), .csv (profile) or .png (both, plotted)."),
     velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help=VELOCITY_HELP),
     object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
@@ -122,16 +123,20 @@ def render(
     typer.echo(_summary(pipeline, delivery, ", ".join(map(str, written))))
 
 
-def validate(files: list[Path] = typer.Argument(..., help="Effect files to check.")):
-    """Check effect files as `play` would, short of opening the device: keys, types, ranges, plugins and their
+def validate(files: list[Path] = typer.Argument(..., help="Effect files or haptic files to check.")):
+    """Check effect files (or haptic files: .haptic, .ahap, ...) as `play` would, short of opening the device: keys, types, ranges, plugins and their
     parameters, the dataset, object, reducer, interpolator and its options, weights or tables, and the limits
     against the actuator's hard limits. Exit 2 if any fails."""
+    from ..interfaces import Impact
     from ..pipeline import Pipeline
 
     failed = 0
     for file in files:
         try:
-            e = Pipeline.from_effect(file).effect
+            pipeline = Pipeline.from_effect(file)
+            e = pipeline.effect
+            for note in pipeline.model.notes(Impact(e.object_id, e.velocity_mps)):  # a haptic file's legacy form, say
+                typer.echo(f"hapticfx: warning: {note}", err=True)
             typer.echo(f"ok: {file} (effect {e.name!r}: model {e.model.type}, actuator {e.actuator.type})")
         except HapticfxError as exc:
             failed += 1

@@ -1,0 +1,130 @@
+"""``hapticfx export`` (an effect or a WAV file to platform haptic files) and ``hapticfx bench formats``."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import HapticfxError
+
+DEVICE_HELP = ("Actuator configuration that maps Hz to the file's 0-1 frequency and AHAP sharpness: quest (55-200 Hz, "
+               "the default), console-pcm (20-250 Hz) or an .acf file.")
+
+
+def _velocities(text: str) -> list[float]:
+    """``LO:HI:STEP`` or a comma list of velocities (m/s)."""
+    try:
+        if ":" in text:
+            lo, hi, step = (float(p) for p in text.split(":"))
+            if step <= 0 or hi < lo:
+                raise ValueError
+            count = int(round((hi - lo) / step)) + 1
+            if count > 1000:
+                raise HapticfxError(f"--velocities {text!r} asks for {count} files; at most 1000")
+            return [round(lo + i * step, 6) for i in range(count)]
+        return [float(p) for p in text.split(",") if p.strip()]
+    except ValueError:
+        raise HapticfxError(f"--velocities {text!r}: expected LO:HI:STEP (HI >= LO, STEP > 0) or a comma list") from None
+
+
+def _wav_signal(path: Path):
+    from ..actuators.files import read_wav
+    from ..signal import Signal
+
+    rate, samples = read_wav(path)
+    return Signal(samples.mean(axis=0), float(rate))
+
+
+def _refuse_existing(path: Path, force: bool) -> None:
+    if path.exists() and not force:
+        raise HapticfxError(f"{path}: exists; use --force to replace it")
+
+
+def export(
+    source: Path = typer.Argument(..., help="Effect file (YAML), or a WAV file (its channels are averaged)."),
+    format: str = typer.Option(..., "--format", "-f", help="haptic, ahap, android or hjif (or a plugin's format)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Output file; with --velocities, a folder (made if missing)."),
+    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help="Impact velocity in m/s (default: the "
+                                             "effect's velocity_mps)."),
+    velocities: Optional[str] = typer.Option(None, "--velocities", help="One file per velocity, LO:HI:STEP or a comma "
+                                             "list (m/s), named EFFECT-V.VVmps.SUFFIX in the --out folder."),
+    object: Optional[str] = typer.Option(None, "--object", help="Object id (default: the effect's object)."),
+    device: str = typer.Option("quest", "--device", help=DEVICE_HELP),
+    tolerance: float = typer.Option(0.01, "--tolerance", min=1e-4, max=0.5, help="Largest distance of the amplitude "
+                                    "envelope from its breakpoints, fraction of full scale."),
+    transients: bool = typer.Option(True, "--transients/--no-transients", help="Write a sharp onset as an emphasis "
+                                    "(transient) in formats that hold one."),
+    force: bool = typer.Option(False, "--force", help="Replace existing output files."),
+):
+    """Export an impact (what the effect's actuator would receive) or a WAV file to a platform haptic file.
+
+    The analysis (amplitude envelope, breakpoints within --tolerance, frequency curve, transient at the
+    onset) and each format's mapping are in docs/formats.md. What is written passes the format's rules:
+    read it back with `hapticfx validate FILE`.
+    """
+    from . import format_named
+    from .base import ExportOptions
+    from .device import device_named
+
+    fmt = format_named(format)
+    options = ExportOptions(device=device_named(device), tolerance=tolerance, transients=transients)
+    suffix = fmt.suffixes[0]
+    if source.suffix.lower() == ".wav":
+        if velocities or velocity is not None:
+            raise HapticfxError("--velocity and --velocities apply to effects, not to a WAV file")
+        signal = _wav_signal(source)
+        _refuse_existing(out, force)
+        t0 = time.perf_counter()
+        fmt.write(out, signal, ExportOptions(**{**options.__dict__, "description": source.stem, "source": source.name}))
+        typer.echo(f"wrote {out} ({out.stat().st_size} bytes, {signal.duration_s * 1000:.0f} ms of {source.name}, "
+                   f"{(time.perf_counter() - t0) * 1000:.0f} ms)")
+        return
+    from ..pipeline import Pipeline
+    from ..cli.commands import _warn
+
+    pipeline = Pipeline.from_effect(source, device="memory")
+    if velocities is not None:
+        if velocity is not None:
+            raise HapticfxError("give --velocity or --velocities, not both")
+        out.mkdir(parents=True, exist_ok=True)
+        targets = [(v, out / f"{pipeline.effect.name}-{v:.2f}mps{suffix}") for v in _velocities(velocities)]
+    else:
+        targets = [(velocity, out)]
+    for path, _ in ((p, v) for v, p in targets):
+        _refuse_existing(path, force)
+    for i, (v, path) in enumerate(targets):
+        delivery = pipeline.render(velocity=v, object=object)
+        _warn(delivery)
+        imp = delivery.impact
+        described = ExportOptions(**{**options.__dict__, "source": source.name,
+                                     "description": f"{pipeline.effect.name}: {imp.object} at {imp.velocity:.2f} m/s"})
+        t0 = time.perf_counter()
+        fmt.write(path, delivery.output, described)
+        counter = f"[{i + 1}/{len(targets)}] " if len(targets) > 1 else ""
+        typer.echo(f"{counter}wrote {path} ({path.stat().st_size} bytes; {imp.object} at {imp.velocity:.2f} m/s, "
+                   f"{delivery.output.duration_s * 1000:.0f} ms; {(time.perf_counter() - t0) * 1000:.0f} ms)")
+
+
+def bench_formats(
+    effects: list[Path] = typer.Argument(None, help="Effect files (default: every shipped effect)."),
+    charts: Optional[Path] = typer.Option(None, "--charts", help="Write one PNG chart per format into this folder."),
+    repeats: int = typer.Option(5, "--repeats", min=1, max=100, help="Exports timed per effect and format."),
+    device: str = typer.Option("quest", "--device", help=DEVICE_HELP),
+    as_json: Optional[Path] = typer.Option(None, "--json", help="Also write the rows as JSON to this file."),
+):
+    """Round trip of every effect through every format: envelope, spectral and perceptual error, size, time.
+
+    Each effect is rendered for its actuator, exported, read back and rendered by the format's synthesis;
+    the table compares the two (docs/formats.md says how each column is measured).
+    """
+    from .bench.roundtrip import run
+
+    run(effects or None, charts=charts, repeats=repeats, device=device, as_json=as_json)
+
+
+def register(app: typer.Typer, bench: typer.Typer) -> None:
+    app.command("export")(export)
+    bench.command("formats")(bench_formats)

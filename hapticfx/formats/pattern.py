@@ -1,0 +1,60 @@
+"""The parametric description that envelope formats hold, and its curves sampled for playing.
+
+Every envelope format here (``.haptic``, AHAP, Android envelopes, ``.hjif`` vectorial
+bands) describes an impact the way Meta's ``.haptic`` 1.0 does: an amplitude envelope
+(breakpoints, 0-1 of full scale, linear between them), a frequency envelope (0-1, mapped
+to Hz by a :class:`~hapticfx.formats.device.Device`) and emphasis points (transients).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+DEFAULT_FREQUENCY = 0.5  # the .haptic spec's default when the frequency envelope is empty
+
+
+@dataclass(frozen=True)
+class Emphasis:
+    """A transient: when, how strong (0-1) and how sharp (0-1 frequency)."""
+
+    time_s: float
+    amplitude: float
+    frequency: float
+
+
+@dataclass(frozen=True)
+class Pattern:
+    """Breakpoints: ``amplitude`` (K, 2) of (time s, 0-1); ``frequency`` (M, 2) of (time s, 0-1), may be empty."""
+
+    amplitude: np.ndarray
+    frequency: np.ndarray
+    emphasis: tuple[Emphasis, ...] = ()
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.amplitude[-1, 0])
+
+    def curves(self, rate_hz: float) -> "Curves":
+        """The envelopes sampled at ``rate_hz`` from 0 to the last amplitude breakpoint (held before and after)."""
+        n = int(np.floor(self.duration_s * rate_hz)) + 1
+        t = np.arange(n) / rate_hz
+        amp = _linear(self.amplitude, t)
+        freq = _linear(self.frequency, t) if len(self.frequency) else np.full(n, DEFAULT_FREQUENCY)
+        return Curves(rate_hz, amp, freq, self.emphasis)
+
+
+def _linear(points: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Piecewise-linear through ``points`` (time, value); duplicate times step at that time."""
+    return np.interp(t, points[:, 0], points[:, 1])
+
+
+@dataclass(frozen=True)
+class Curves:
+    """What the synthesiser plays: amplitude (0-1) and frequency (0-1) per sample, and the transients."""
+
+    rate_hz: float
+    amplitude: np.ndarray
+    frequency: np.ndarray
+    emphasis: tuple[Emphasis, ...] = ()

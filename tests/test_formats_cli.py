@@ -1,0 +1,130 @@
+"""`hapticfx export` and `hapticfx play|render|validate FILE.haptic|.ahap|...`, as a user runs them."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hapticfx.actuators.files import read_wav, write_wav
+from hapticfx.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+BRICK = REPO / "effects" / "falling_brick_kinetic.yaml"
+
+
+def hfx(capsys, *args) -> tuple[int, str, str]:
+    with pytest.raises(SystemExit) as done:
+        main([str(a) for a in args])
+    out = capsys.readouterr()
+    return done.value.code, out.out, out.err
+
+
+@pytest.mark.parametrize("fmt, suffix", [("haptic", ".haptic"), ("ahap", ".ahap"), ("android", ".android.json"),
+                                         ("hjif", ".hjif")])
+def test_export_then_validate_and_render(tmp_path, capsys, fmt, suffix):
+    out = tmp_path / f"brick{suffix}"
+    code, text, err = hfx(capsys, "export", BRICK, "--format", fmt, "--out", out, "--velocity", "4.2")
+    assert code == 0, err
+    assert f"wrote {out}" in text and "concrete-brick at 4.20 m/s" in text
+    assert hfx(capsys, "validate", out)[0] == 0
+    wav = tmp_path / "brick.wav"
+    code, text, err = hfx(capsys, "render", out, "--out", wav)
+    assert code == 0, err
+    rate, data = read_wav(wav)
+    assert rate == 48000 and 0.01 < np.max(np.abs(data)) <= 1.0
+    code, _, err = hfx(capsys, "export", BRICK, "--format", fmt, "--out", out)
+    assert code == 2 and "exists; use --force" in err
+
+
+def test_export_a_folder_over_a_velocity_range(tmp_path, capsys):
+    code, text, err = hfx(capsys, "export", BRICK, "--format", "haptic", "--out", tmp_path / "set",
+                          "--velocities", "2:4:0.5")
+    assert code == 0, err
+    files = sorted(p.name for p in (tmp_path / "set").iterdir())
+    assert files == [f"falling-brick-kinetic-{v:.2f}mps.haptic" for v in (2.0, 2.5, 3.0, 3.5, 4.0)]
+    peaks = [max(p["amplitude"] for p in json.loads((tmp_path / "set" / f).read_text())
+                 ["signals"]["continuous"]["envelopes"]["amplitude"]) for f in files]
+    assert peaks == sorted(peaks) and peaks[0] < peaks[-1]  # faster drops, stronger files
+    assert "[5/5]" in text
+
+
+def test_export_a_wav_file(tmp_path, capsys):
+    t = np.arange(9600) / 48000
+    wav = tmp_path / "knock.wav"
+    write_wav(wav, np.vstack([0.5 * np.exp(-t / 0.03) * np.sin(2 * np.pi * 90 * t)] * 2), 48000)
+    out = tmp_path / "knock.haptic"
+    code, text, err = hfx(capsys, "export", wav, "--format", "haptic", "--out", out)
+    assert code == 0, err
+    doc = json.loads(out.read_text())
+    assert doc["metadata"]["source"] == "knock.wav"
+    peak = max(p["amplitude"] for p in doc["signals"]["continuous"]["envelopes"]["amplitude"])
+    assert 0.35 < peak <= 0.5
+
+
+@pytest.mark.parametrize("edit, where, rule", [
+    (lambda env: env["amplitude"][1].update(amplitude=1.3), "amplitude[1].amplitude", "amplitude within 0.0-1.0"),
+    (lambda env: env["amplitude"].reverse(), "amplitude[1].time", "non-decreasing time order"),
+    (lambda env: env.update(amplitude=env["amplitude"][:1]), "envelopes.amplitude", "at least two amplitude breakpoints"),
+])
+def test_a_bad_file_is_one_line_exit_2_naming_file_path_and_rule(tmp_path, capsys, edit, where, rule):
+    out = tmp_path / "b.haptic"
+    assert hfx(capsys, "export", BRICK, "--format", "haptic", "--out", out)[0] == 0
+    doc = json.loads(out.read_text())
+    edit(doc["signals"]["continuous"]["envelopes"])
+    out.write_text(json.dumps(doc))
+    for command in (["validate", out], ["render", out, "--out", tmp_path / "x.wav"]):
+        code, text, err = hfx(capsys, *command)
+        assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert str(out) in err and where in err and rule in err
+    assert not (tmp_path / "x.wav").exists()
+
+
+def test_missing_signals_is_refused(tmp_path, capsys):
+    bad = tmp_path / "empty.haptic"
+    bad.write_text('{"version": {"major": 1, "minor": 0, "patch": 0}, "metadata": {}}')
+    code, _, err = hfx(capsys, "validate", bad)
+    assert code == 2 and "$: required key 'signals' is missing" in err
+
+
+def test_an_effect_whose_model_is_a_haptic_file_goes_through_the_limiter(tmp_path, capsys, write_effect):
+    loud = tmp_path / "loud.haptic"
+    loud.write_text(json.dumps({"version": {"major": 1, "minor": 0, "patch": 0}, "metadata": {}, "signals": {
+        "continuous": {"envelopes": {"amplitude": [{"time": 0.0, "amplitude": 1.0}, {"time": 0.3, "amplitude": 1.0}],
+                                     "frequency": []}}}}))
+    effect = write_effect(f"name: loud\nobject: anything\nvelocity_mps: 2.0\nmodel: {{type: haptic-file, file: loud.haptic, "
+                          "reference_velocity_mps: 4.0}\nactuator: {type: memory, gain: 1.0, limits: {peak: 0.3}}\n")
+    from hapticfx.pipeline import Pipeline
+
+    delivery = Pipeline.from_effect(effect).render()
+    assert np.max(np.abs(delivery.profile.samples)) == pytest.approx(0.5, abs=0.01)  # 2 of 4 m/s: half strength
+    assert np.max(np.abs(delivery.output.samples)) <= 0.3 + 1e-9 and delivery.limiter.peak_events > 0
+
+
+def test_an_ahap_audio_event_is_said_in_one_line(tmp_path, capsys):
+    ahap = tmp_path / "mixed.ahap"
+    ahap.write_text('{"Pattern": [{"Event": {"EventType": "HapticTransient", "Time": 0.0}},'
+                    '{"Event": {"EventType": "AudioCustom", "Time": 0.1, "EventWaveformPath": "x.wav"},},]}')
+    code, text, err = hfx(capsys, "render", ahap, "--out", tmp_path / "m.wav")
+    assert code == 0 and err.count("warning") == 1 and "AudioCustom" in err and "left out" in err
+
+
+def test_exporting_and_rendering_a_haptic_file_imports_no_torch_or_sound_device(tmp_path):
+    probe = f"""
+import sys
+from hapticfx.cli import main
+for args in (["export", {str(BRICK)!r}, "--format", "haptic", "--out", {str(tmp_path / 'b.haptic')!r}],
+             ["render", {str(tmp_path / 'b.haptic')!r}, "--out", {str(tmp_path / 'b.wav')!r}]):
+    try:
+        main(args)
+    except SystemExit as e:
+        assert e.code == 0, e.code
+print([m for m in ("torch", "sounddevice", "serial") if m in sys.modules])
+"""
+    r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == "[]"
