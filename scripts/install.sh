@@ -2,7 +2,7 @@
 # Install hapticfx and its first-party plugins on a fresh Debian/Ubuntu machine.
 #   scripts/install.sh          system libraries (apt, when run as root) + hapticfx + plugins (no torch)
 #   scripts/install.sh --test   the same, plus what the tests need (torch CPU build, virtual sound server,
-#                               socat, oscsend)
+#                               socat, oscsend, godot3-server, mono-mcs)
 # Uses the active Python (a virtual environment if one is active).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,6 +15,8 @@ if [ "${1:-}" = "--test" ]; then
   apt_packages+=(pulseaudio pulseaudio-utils libasound2-plugins socat liblo-tools gcc-avr avr-libc arduino-core-avr)
   # The study page is tested in Debian's headless chromium through selenium.
   apt_packages+=(chromium chromium-driver)
+  # The engine examples: Godot 3 headless runs examples/godot/; Mono's C# compiler builds examples/unity/.
+  apt_packages+=(godot3-server mono-mcs)
 fi
 apt_get() {
   # apt-get that waits for another package manager (unattended-upgrades, a second install) to let go

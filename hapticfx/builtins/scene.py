@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 from ..errors import DeviceError
@@ -38,12 +39,25 @@ def _remote_warning(address: tuple[str, int], secret: str | None) -> str:
             f"know it, not ones that can read the network (docs/protocol.md)")
 
 
+def _played_line(p) -> str:
+    """One played impact as a JSON line (``serve --log``)."""
+    def rounded(v):
+        return None if v is None else [round(c, 6) for c in v]
+
+    return json.dumps({"object": p.object, "velocity": round(p.velocity, 6), "at": p.at, "point": rounded(p.point),
+                       "normal": rounded(p.normal), "output": p.output, "peak": round(p.peak, 6),
+                       "duration_s": p.duration_s, "latency_ms": round(p.latency_s * 1e3, 3)})
+
+
 def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device: str | None,
                 stats_every: float, duration: float | None, echo, allow_remote: bool = False,
-                secret: str | None = None, warn=None) -> dict:
+                secret: str | None = None, warn=None, log_path: Path | None = None) -> dict:
     """Run the OSC bridge on a scene until SIGINT/SIGTERM (or ``duration``); returns the final counters.
 
-    ``warn`` (default: ``echo``) receives the warning printed when the bridge listens beyond loopback."""
+    ``warn`` (default: ``echo``) receives the warning printed when the bridge listens beyond loopback;
+    ``log_path``: each played impact is written there as a JSON line as it is played."""
+    import threading
+
     from ..engine import Engine
     from ..osc import OscBridge
     from ..scene import OscSettings, load_scene
@@ -51,8 +65,17 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
 
     scene = load_scene(scene_path)
     osc = scene.osc or OscSettings()
-    with StopSignals() as stop:
-        with Engine(scene, device=device) as engine:
+    log_file = open(log_path, "w", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
+    lock = threading.Lock()
+
+    def write(playback) -> None:
+        line = _played_line(playback)
+        with lock:
+            log_file.write(line + "\n")
+            log_file.flush()
+
+    with StopSignals() as stop, (log_file or nullcontext()):
+        with Engine(scene, device=device, on_played=write if log_file else None) as engine:
             bridge = OscBridge(engine.submit, engine.objects, host=host or osc.host,
                                port=osc.port if port is None else port, max_datagram=osc.max_datagram,
                                rate_hz=osc.rate_hz, burst=osc.burst, allow_remote=allow_remote, secret=secret)
@@ -96,15 +119,20 @@ def register_commands(app, bench):
                                           "reach (--host 0.0.0.0, or the scene's host); refused without this flag."),
         secret_file: Path = typer.Option(None, help="A file whose first line is a shared secret (16-128 letters, "
                                          "digits, '_', '-'): other machines must then send /<secret>/hapticfx/impact."),
+        log: Path = typer.Option(None, help="Write each played impact (object, velocity, at, point, normal, output, "
+                                 "peak, latency) to this file as it is played, one JSON line each."),
     ):
         """Receive impacts over OSC/UDP (docs/protocol.md) and render them on the scene's actuators.
 
         Listens on 127.0.0.1 unless told otherwise; an address other machines can reach needs --allow-remote
         and prints a warning."""
         secret = read_secret(secret_file) if secret_file is not None else None
+        if log is not None and not log.resolve().parent.is_dir():
+            raise DeviceError(f"--log {log}: directory {log.resolve().parent} does not exist")
         out = serve_scene(scene, host=host, port=port, device=device, stats_every=stats_every, duration=duration,
                           echo=lambda line: typer.echo(line, err=False) or sys.stdout.flush(),
-                          allow_remote=allow_remote, secret=secret, warn=lambda line: typer.echo(line, err=True))
+                          allow_remote=allow_remote, secret=secret, warn=lambda line: typer.echo(line, err=True),
+                          log_path=log)
         typer.echo(json.dumps(out))
         engine = out["engine"]
         if engine.get("close_errors") or engine["failed"]:
