@@ -9,8 +9,6 @@ import typer
 
 from hapticfx.errors import EffectError
 
-from . import checkpoint
-
 
 def train(
     config: Path = typer.Argument(..., help="Training configuration YAML (see docs/neural.md)."),
@@ -22,6 +20,7 @@ def train(
                                  "and keep only model.safetensors + model.json, e.g. for shipping weights."),
 ):
     """Train a neural interpolator on a dataset; writes model.safetensors, model.json and its velocity table."""
+    from . import checkpoint
     from .config import load_config
     from .interpolator import require_torch
     from .run import train_from_config
@@ -54,6 +53,7 @@ def table(
     """
     from hapticfx.data.dataset import open_dataset
 
+    from . import checkpoint
     from .interpolator import require_torch
     from .tables import write_table
 

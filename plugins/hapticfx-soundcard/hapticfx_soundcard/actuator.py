@@ -21,8 +21,6 @@ from hapticfx.params import BuildContext, doc
 from hapticfx.shaping import resample
 from hapticfx.signal import Signal
 
-from . import queuestream
-from . import stream as streams
 from .devices import negotiate_rate, resolve_device
 from .shared import SharedStream
 
@@ -98,6 +96,10 @@ class SoundCardActuator(Actuator):
     def open(self) -> None:
         if self._stream is not None:
             return
+        # The streams load libpulse and PortAudio: only when a sound card is opened, not to read the spec.
+        from . import queuestream
+        from . import stream as streams
+
         p = self.params
         default_device = self.device_request in (None, "default")
         if p.queue == "auto" and default_device or p.queue not in ("auto", 0):
