@@ -60,3 +60,22 @@ def test_mkdocs_build_strict(tmp_path):
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert (tmp_path / "site" / "reference" / "effect-file" / "index.html").is_file()
+
+
+def test_benchmarks_page_is_a_reference_every_table_with_its_command():
+    """docs/benchmarks.md: short, no runs by the time of day, and a command above every table."""
+    import re
+
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    lines = text.splitlines()
+    assert len(lines) <= 600, f"docs/benchmarks.md has {len(lines)} lines; keep it a reference (about 500)"
+    assert not re.findall(r"\b[0-2][0-9]:[0-5][0-9]\b", text), "times of day belong in commit messages"
+    section_command = False
+    for number, line in enumerate(lines, 1):
+        if line.startswith("## ") or line.startswith("### "):
+            section_command = False
+        if line.startswith("```") or "`hapticfx bench" in line or "`python " in line:
+            section_command = True
+        starts_table = line.startswith("|") and number > 1 and not lines[number - 2].startswith("|")
+        if starts_table and "| command |" not in line and "| target |" not in line:
+            assert section_command, f"docs/benchmarks.md:{number}: a table with no command above it in its section"
