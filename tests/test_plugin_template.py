@@ -1,9 +1,13 @@
-"""The third-party plugin template (examples/hapticfx-example-actuator) installs into a
-fresh virtual environment, shows in `hapticfx plugins`, and plays an effect through it.
+"""The third-party plugin template (examples/hapticfx-example-actuator) installs with pip,
+shows in `hapticfx plugins`, and plays an effect through it.
 
-The environment uses --system-site-packages so that numpy, scipy and hapticfx itself
-come from this interpreter (no downloads); the example is installed into the
-environment only, from a copy (building it writes build files next to its sources).
+It is installed with this interpreter's pip into a folder of its own (``pip install
+--target``), which the commands below put on ``PYTHONPATH``: numpy, scipy and hapticfx
+itself come from the environment the tests run in, a virtual environment included (a
+venv nested in one with --system-site-packages would see the base interpreter's
+packages instead), and nothing is downloaded (--no-build-isolation: the build uses this
+environment's setuptools, which the test extra requires). It is installed from a copy:
+building it writes build files next to its sources.
 """
 
 from __future__ import annotations
@@ -35,16 +39,14 @@ def run(*args, env=None, cwd=None, check=True) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def venv(tmp_path_factory):
-    """A fresh venv with only the example plugin installed into it."""
+def installed(tmp_path_factory):
+    """The example plugin installed into a folder of its own; its sources (a copy)."""
     base = tmp_path_factory.mktemp("template")
-    env_dir = base / "venv"
-    run(sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", env_dir)
-    python = env_dir / "bin" / "python"
-    source = base / "src"
+    target, source = base / "site", base / "src"
     shutil.copytree(EXAMPLE, source, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
-    run(python, "-m", "pip", "install", "--quiet", "--no-build-isolation", "--no-deps", source)
-    return python, source
+    run(sys.executable, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--no-build-isolation",
+        "--no-deps", "--target", target, source)
+    return target, source
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -52,31 +54,35 @@ def read_rows(path: Path) -> list[dict]:
         return list(csv.DictReader(handle))
 
 
-def clean_env(**extra) -> dict:
+def clean_env(target: Path | None = None, **extra) -> dict:
+    """This environment without HAPTICFX_PLUGINS; with ``target`` (the plugin's folder) on PYTHONPATH."""
     env = {k: v for k, v in os.environ.items() if k != "HAPTICFX_PLUGINS"}
+    if target is not None:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(target), env.get("PYTHONPATH")) if p)
     env.update(extra)
     return env
 
 
-def test_installs_into_the_venv_only(venv):
-    python, _ = venv
-    in_venv = run(python, "-m", "hapticfx", "plugins", env=clean_env()).stdout
-    line = next(l for l in in_venv.splitlines() if " csv-logger " in l)
+def test_installs_into_its_folder_only(installed):
+    target, _ = installed
+    found = run(sys.executable, "-m", "hapticfx", "plugins", env=clean_env(target)).stdout
+    line = next(l for l in found.splitlines() if " csv-logger " in l)
     assert line.split() == ["actuator", "csv-logger", "csvlog", "hapticfx-example-actuator", "0.1.0"]
     outside = run(sys.executable, "-m", "hapticfx", "plugins", env=clean_env()).stdout
     assert "csv-logger" not in outside
 
 
-def test_allow_list_controls_loading(venv):
-    python, _ = venv
-    only_solenoid = run(python, "-m", "hapticfx", "plugins", env=clean_env(HAPTICFX_PLUGINS="solenoid")).stdout
+def test_allow_list_controls_loading(installed):
+    target, _ = installed
+    only_solenoid = run(sys.executable, "-m", "hapticfx", "plugins",
+                        env=clean_env(target, HAPTICFX_PLUGINS="solenoid")).stdout
     assert "csv-logger" not in only_solenoid
-    only_it = run(python, "-m", "hapticfx", "plugins", env=clean_env(HAPTICFX_PLUGINS="csvlog")).stdout
+    only_it = run(sys.executable, "-m", "hapticfx", "plugins", env=clean_env(target, HAPTICFX_PLUGINS="csvlog")).stdout
     assert "csv-logger" in only_it and "solenoid" not in only_it
 
 
-def test_plays_an_effect_through_it(venv, tmp_path):
-    python, _ = venv
+def test_plays_an_effect_through_it(installed, tmp_path):
+    target, _ = installed
     effect = tmp_path / "brick_logged.yaml"
     effect.write_text(textwrap.dedent("""\
         name: brick-logged
@@ -89,9 +95,9 @@ def test_plays_an_effect_through_it(venv, tmp_path):
           rate_hz: 1000
           gain: 1.0
     """))
-    done = run(python, "-m", "hapticfx", "play", effect, "--velocity", "4.2", env=clean_env(), cwd=tmp_path)
+    done = run(sys.executable, "-m", "hapticfx", "play", effect, "--velocity", "4.2", env=clean_env(target), cwd=tmp_path)
     assert "CSV log" in done.stdout
-    # and through the Python API in the venv, to compare the log with what the pipeline sent
+    # and through the Python API, to compare the log with what the pipeline sent
     check = textwrap.dedent(f"""
         import numpy as np
         from hapticfx.pipeline import Pipeline
@@ -102,19 +108,19 @@ def test_plays_an_effect_through_it(venv, tmp_path):
         assert np.array_equal(row["samples"], d.output.samples)
         print(row["peak"], row["above_half_s"], row["n_samples"])
     """)
-    peak, above, n = run(python, "-c", check, env=clean_env()).stdout.split()
+    peak, above, n = run(sys.executable, "-c", check, env=clean_env(target)).stdout.split()
     # the 30 ms pulse, less the first half of shaping's 2 ms fade-in (below half scale)
     assert float(above) == pytest.approx(0.030 - FADE_IN_S / 2) and int(n) > 0 and float(peak) > 0
 
 
 
-def test_cli_log_matches_a_render(venv, tmp_path):
-    python, _ = venv
+def test_cli_log_matches_a_render(installed, tmp_path):
+    target, _ = installed
     effect = tmp_path / "e.yaml"
     effect.write_text("name: e\nobject: steel-plate\nvelocity_mps: 5.24\nmodel: {type: kinetic-energy, pulse_ms: 20}\n"
                       "actuator: {type: csv-logger, path: out.csv, gain: 1.0}\n")
-    run(python, "-m", "hapticfx", "play", effect, env=clean_env())
-    run(python, "-m", "hapticfx", "play", effect, "--device", tmp_path / "second.csv", env=clean_env())
+    run(sys.executable, "-m", "hapticfx", "play", effect, env=clean_env(target))
+    run(sys.executable, "-m", "hapticfx", "play", effect, "--device", tmp_path / "second.csv", env=clean_env(target))
     first, = read_rows(tmp_path / "out.csv")
     second, = read_rows(tmp_path / "second.csv")
     assert first["samples"] == second["samples"]
@@ -124,7 +130,8 @@ def test_cli_log_matches_a_render(venv, tmp_path):
     assert not list(tmp_path.glob(".*.part"))  # no temporary file left behind
 
 
-def test_the_examples_own_tests_pass_in_the_venv(venv):
-    python, source = venv
-    done = run(python, "-m", "pytest", "-q", "-p", "no:cacheprovider", source / "tests", env=clean_env(), cwd=source)
+def test_the_examples_own_tests_pass_where_it_is_installed(installed):
+    target, source = installed
+    done = run(sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", source / "tests", env=clean_env(target),
+               cwd=source)
     assert " passed" in done.stdout
