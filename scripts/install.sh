@@ -59,12 +59,12 @@ if [ "${1:-}" = "--test" ]; then
   cpu_index=https://download.pytorch.org/whl/cpu
   if [ "$(uname -s)" = "Linux" ] && "$PY" -c "import urllib.request as u; u.urlopen('$cpu_index/torch/', timeout=5)" 2>/dev/null; then
     "$PY" -m pip install -q --disable-pip-version-check --index-url "$cpu_index" "torch>=2.3"
-    echo "install: torch $("$PY" -c 'import torch; print(torch.__version__)') (CPU build) from $cpu_index"
+    echo "install: torch $("$PY" -W ignore -c 'import torch; print(torch.__version__)') (CPU build) from $cpu_index"
   else
     # PyTorch's index is unreachable: the default index. torch 2.13.0 is the release this project was
     # tested with (pip takes a CPU wheel when one is on its find-links, as on the project's machines).
     "$PY" -m pip install -q --disable-pip-version-check "torch==2.13.0"
-    echo "install: torch $("$PY" -c 'import torch; print(torch.__version__)') from the default index ($cpu_index unreachable)"
+    echo "install: torch $("$PY" -W ignore -c 'import torch; print(torch.__version__)') from the default index ($cpu_index unreachable)"
   fi
   extra="[test,earthquake,docs,study]" neural="[train]"
 fi
