@@ -21,13 +21,14 @@ pytestmark = pytest.mark.soundserver
 SCRIPT = Path(__file__).resolve().parents[3] / ".ci" / "soundserver.sh"
 
 
-def run_child(mode, tmp_path, queue=0.0):
+def run_child(mode, tmp_path, queue=0.0, latency=None):
     runtime = str(tmp_path / "xdg")
     start_soundserver(runtime)
     try:
         pid = (Path(runtime) / "pulse" / "pid").read_text().strip()
         env = {**os.environ, "XDG_RUNTIME_DIR": runtime, "HAPTICFX_XDG": runtime, "HAPTICFX_SOUNDSERVER": str(SCRIPT)}
-        done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.bench.faultprobe", mode, pid, str(queue)], env=env,
+        done = subprocess.run([sys.executable, "-m", "hapticfx_soundcard.bench.faultprobe", mode, pid, str(queue),
+                               *([] if latency is None else [str(latency)])], env=env,
                               capture_output=True, text=True, timeout=60)
     finally:
         stop_soundserver(runtime)
@@ -59,9 +60,12 @@ QUEUE = "the PulseAudio default sink unavailable:"
 def test_a_failing_sound_server_gives_a_clear_error_quickly(mode, queue, output, cause, tmp_path):
     seen, stderr = run_child(mode, tmp_path, queue)
     assert seen["detected_s"] != "never"
-    assert float(seen["detected_s"]) < 1.0
-    assert seen["message"].startswith(output) and cause in seen["message"], seen["message"]
-    assert float(seen["play_after_s"].split()[0]) < 0.05
+    assert float(seen["detected_s"]) < 1.0  # the watchdog's 0.5 s, with a margin for a loaded machine
+    # PortAudio's report that the stream ended races the 0.5 s watchdog: on a loaded machine the watchdog
+    # may tell a dead server first, in its own words
+    causes = (cause, "no audio callback") if output == PORTAUDIO else (cause,)
+    assert seen["message"].startswith(output) and any(c in seen["message"] for c in causes), seen["message"]
+    assert float(seen["play_after_s"].split()[0]) < 0.25  # at once: not after a reconnection's 0.5 s
     assert int(seen["lost"]) == 1  # the tone that was sounding
     assert seen["other_played"] == "1"
     assert float(seen["close_s"]) < 1.5
@@ -71,12 +75,15 @@ def test_a_failing_sound_server_gives_a_clear_error_quickly(mode, queue, output,
 @pytest.mark.parametrize("queue", [0.0, 0.1])
 @pytest.mark.parametrize("mode", ["stall-resume", "restart"])
 def test_impacts_are_heard_again_once_the_server_is_back(mode, queue, tmp_path):
-    seen, stderr = run_child(mode, tmp_path, queue)
+    """A PortAudio stream starts with a 0.1 s buffer that may grow to 1 s: a loaded machine's own stalls
+    do not lengthen it, the outage's gap would (how often a busy machine starves the shipped 'low'
+    buffer is `hapticfx bench output`'s question)."""
+    seen, stderr = run_child(mode, tmp_path, queue, latency=0.1 if queue == 0.0 else None)
     assert float(seen["detected_s"]) < 1.0
     assert seen["recovered_s"] != "never"
     assert seen["heard"] == "1"
-    if mode == "stall-resume":  # at the stream's usual latency, not late by what the stall threw off
-        assert float(seen["heard_after_s"]) < 0.05, seen["heard_after_s"]
+    if mode == "stall-resume":  # at the stream's usual latency, not late by the 1 s that the stall threw off
+        assert float(seen["heard_after_s"]) < 0.5, seen["heard_after_s"]
     assert seen["buffer_changes"] == "0"  # the gap of an outage is not one that a longer buffer would hold
     assert float(seen["close_s"]) < 1.5
     assert quiet(stderr)

@@ -139,48 +139,69 @@ def test_without_libpulse_the_queue_says_what_to_install(monkeypatch):
         libpulse.load()
 
 
+# What these tests check is where an impact is written over the queue, not how often a loaded machine
+# writes one too late (`hapticfx bench output` reports that): they write 50 ms ahead of playback, a margin
+# that a loaded machine's scheduling delays do not use up, and record with a capture buffer as long.
+AHEAD_S = 0.05
+CAPTURE_LATENCY_S = 0.25
+
+
 @pytest.mark.soundserver
 def test_an_impact_is_heard_ahead_of_playback_not_behind_the_queue(soundserver):
-    """A 200 ms queue, yet each click is heard about 8 ms after play(): written over the queue."""
-    with VibroTransducer(VibroTransducer.Params(queue=0.2, ahead=0.008), BuildContext(device="default")) as act:
-        with LoopbackRecorder(RATE) as rec:
+    """A 200 ms queue, yet each click is heard about `ahead` (50 ms) after play(): written over the queue."""
+    with VibroTransducer(VibroTransducer.Params(queue=0.2, ahead=AHEAD_S), BuildContext(device="default")) as act:
+        with LoopbackRecorder(RATE, latency=CAPTURE_LATENCY_S) as rec:
             time.sleep(0.3)
             calls = []
             for _ in range(10):
                 calls.append(rec.now())
                 act.play(Signal(click(RATE), RATE))
                 time.sleep(0.1)
-            time.sleep(0.3)
+            time.sleep(0.3 + CAPTURE_LATENCY_S)
         x, t = rec.capture.timeline(0)
         assert act.underflows == 0 and act.losses() == {}
     heard = onsets(x, t)
     assert len(heard) == 10
     latency = heard - np.array(calls)
-    assert np.all((latency > 0.004) & (latency < 0.05)), latency  # the queue (200 ms) is not waited out
+    # not before `ahead` (less a quantum and the onset's detection); the queue (200 ms) is not waited out
+    assert np.all((latency > AHEAD_S - 0.004) & (latency < 0.15)), latency
 
 
 @pytest.mark.soundserver
-@pytest.mark.parametrize("rendered_s, earlier_s", [(0.004, 0.004), (1.0, 0.010 - SOONEST_S)])
-def test_an_impact_is_heard_ahead_after_it_was_received_not_after_it_was_rendered(soundserver, rendered_s, earlier_s):
-    """Two clicks handed over together, one received ``rendered_s`` before (as if it took that long to
-    render): it is heard that much earlier, but never less than SOONEST_S ahead of playback."""
+@pytest.mark.parametrize("rendered_s, soonest_s", [(0.004, SOONEST_S), (1.0, 0.03)])
+def test_an_impact_is_heard_ahead_after_it_was_received_not_after_it_was_rendered(soundserver, monkeypatch,
+                                                                                   rendered_s, soonest_s):
+    """Two clicks received together, one handed over ``rendered_s`` later (as if it took that long to
+    render): it is heard that much earlier, but never less than SOONEST_S ahead of playback. The clamp
+    is tested at 30 ms, not the shipped 5 ms, so that a loaded machine does not make its write late."""
+    from hapticfx_soundcard import queuestream
+
+    monkeypatch.setattr(queuestream, "SOONEST_S", soonest_s)
     ctx = {"device": "default"}
-    with VibroTransducer(VibroTransducer.Params(queue=0.15, ahead=0.01), BuildContext(**ctx, channel=0)) as late, \
-            VibroTransducer(VibroTransducer.Params(queue=0.15, ahead=0.01), BuildContext(**ctx, channel=1)) as now:
-        with LoopbackRecorder(RATE) as rec:
+    params = VibroTransducer.Params(queue=0.15, ahead=AHEAD_S)
+    with VibroTransducer(params, BuildContext(**ctx, channel=0)) as late, \
+            VibroTransducer(params, BuildContext(**ctx, channel=1)) as now:
+        with LoopbackRecorder(RATE, latency=CAPTURE_LATENCY_S) as rec:
             time.sleep(0.3)
+            delays = []
             for _ in range(8):
-                late.play(Signal(click(RATE), RATE), received=time.perf_counter() - rendered_s)
-                now.play(Signal(click(RATE), RATE))
+                received = time.perf_counter()
+                late.play(Signal(click(RATE), RATE), received=received - rendered_s)
+                delays.append(time.perf_counter() - received)  # at most this between `received` and late's write
+                now.play(Signal(click(RATE), RATE), received=received)
                 time.sleep(0.1)
-            time.sleep(0.3)
+            time.sleep(0.3 + CAPTURE_LATENCY_S)
         assert late.underflows == 0 and late.losses() == {}
     heard = [onsets(*rec.capture.timeline(ch)) for ch in (0, 1)]
     assert len(heard[0]) == len(heard[1]) == 8
-    # each is written at the first 64-frame quantum at or after its position (up to 1.3 ms either way); the
-    # median, because a pause of the machine between the two calls moves the second one on
     earlier = heard[1] - heard[0]
-    assert abs(np.median(earlier) - earlier_s) < QUANTUM / RATE + 2e-4, earlier
+    # each is written at the first 64-frame quantum at or after its position (up to 1.3 ms either way)
+    margin = QUANTUM / RATE + 2e-4
+    if rendered_s < AHEAD_S - soonest_s:  # received + ahead is still far enough ahead: exactly rendered_s earlier
+        assert np.all(np.abs(earlier - rendered_s) < margin), earlier
+    else:  # written soonest_s ahead of the playing frame at late's write, which came up to `delay` after `received`
+        want = AHEAD_S - soonest_s
+        assert np.all((earlier > want - np.array(delays) - margin) & (earlier < want + margin)), (earlier, delays)
 
 
 @pytest.mark.soundserver
@@ -210,24 +231,26 @@ def test_an_unknown_sink_is_a_clear_error(soundserver):
 @pytest.mark.soundserver
 def test_a_pause_of_the_machine_shorter_than_the_queue_leaves_no_gap(soundserver):
     """The server and this process stopped together for 40 ms, as when the host pauses the guest
-    (docs/benchmarks.md): the 100 ms queue plays on, while a PortAudio 'low' stream beside it, the
-    shipped default, underflows (which shows the stops were felt)."""
+    (docs/benchmarks.md): a queue 7.5 times as long plays on, while a PortAudio 'low' stream beside it,
+    the shipped default, underflows (which shows the stops were felt). The test asserts what its own
+    stops do, with a margin that a loaded machine's scheduling delays do not use up; how often a busy
+    machine's own stalls empty a queue is `hapticfx bench output`'s question, not this test's."""
     server = int((open(os.path.join(soundserver, "pulse", "pid")).read()).strip())
-    queued = VibroTransducer(VibroTransducer.Params(queue=0.1), BuildContext(device="default", channel=0))
+    queued = VibroTransducer(VibroTransducer.Params(queue=0.3), BuildContext(device="default", channel=0))
     low = VibroTransducer(VibroTransducer.Params(queue=0.0, max_latency=0.0), BuildContext(device="default", channel=1))
     with queued, low:
-        time.sleep(0.5)
-        underflows = low.underflows
+        time.sleep(0.5)  # past the streams' start
+        underflows, dry, late = low.underflows, queued.underflows, len(queued.late_callbacks)
         for _ in range(5):
             subprocess.run(["sh", "-c", f"kill -STOP {server} {os.getpid()}; sleep 0.04; "
                                         f"kill -CONT {server} {os.getpid()}"], check=True)
             time.sleep(0.3)
         assert low.underflows > underflows
-        assert queued.underflows == 0 and not queued.late_callbacks
-        with LoopbackRecorder(RATE) as rec:  # and it goes on playing
+        assert queued.underflows == dry and len(queued.late_callbacks) == late
+        with LoopbackRecorder(RATE, latency=0.25) as rec:  # and it goes on playing
             time.sleep(0.1)
             queued.play(Signal(click(RATE), RATE))
-            time.sleep(0.2)
+            time.sleep(0.4)
     x, t = rec.capture.timeline(0)
     assert len(onsets(x, t)) == 1
 

@@ -1,4 +1,4 @@
-"""A program whose sound server fails under a playing actuator: ``python -m hapticfx_soundcard.bench.faultprobe MODE PID [QUEUE]``.
+"""A program whose sound server fails under a playing actuator: ``python -m hapticfx_soundcard.bench.faultprobe MODE PID [QUEUE [LATENCY]]``.
 
 Run by the fault tests and by ``hapticfx bench output``, each against a PulseAudio
 server of its own (PID). MODE is kill | unload | stall (the server stays broken),
@@ -10,6 +10,9 @@ first impact the actuator takes again; ``heard`` counts the clicks then recorded
 from the sink's monitor, ``heard_after_s`` (stall-resume) how long after ``play``
 the first began; ``buffer_changes`` how often the stream's buffer was lengthened.
 QUEUE (seconds, default 0) is the actuator's ``queue`` option: the PulseAudio queue instead of PortAudio.
+LATENCY (seconds; default PortAudio's 'low' with the shipped max_latency) starts the PortAudio stream with
+that buffer and lets it grow up to 1 s: the tests' choice, a buffer that a loaded machine's own stalls do
+not empty, so that a lengthened buffer can only be the outage's.
 """
 
 import os
@@ -29,6 +32,7 @@ from hapticfx_soundcard.bench.output import LoopbackRecorder, click, onsets
 
 mode, server_pid = sys.argv[1], int(sys.argv[2])
 queue = float(sys.argv[3]) if len(sys.argv) > 3 else 0.0
+buffer = dict(latency=float(sys.argv[4]), max_latency=1.0) if len(sys.argv) > 4 else {}
 rate = 48000
 tone = Signal(0.2 * np.sin(2 * np.pi * 100 * np.arange(2 * rate) / rate), rate)
 
@@ -37,7 +41,7 @@ def say(key, value):
     print(f"{key} {value}", flush=True)
 
 
-act = VibroTransducer(VibroTransducer.Params(queue=queue), BuildContext(device="default"))
+act = VibroTransducer(VibroTransducer.Params(queue=queue, **buffer), BuildContext(device="default"))
 other = get_registry().create("actuator", "memory")
 act.open()
 other.open()

@@ -56,13 +56,13 @@ class Capture:
 class LoopbackRecorder:
     """Records the monitor of the output device (the default input on the null sink)."""
 
-    def __init__(self, rate_hz: float, *, device=None, channels: int = 2):
+    def __init__(self, rate_hz: float, *, device=None, channels: int = 2, latency: str | float = "low"):
         sd = import_sounddevice()
         self.capture = Capture(rate_hz)
         self.overflows = 0  # input blocks the machine did not take in time: a gap in the capture
         try:
             self._stream = sd.InputStream(device=device, samplerate=rate_hz, channels=channels,
-                                          dtype="float32", latency="low", callback=self._callback)
+                                          dtype="float32", latency=latency, callback=self._callback)
         except sd.PortAudioError as exc:
             raise DeviceError(f"cannot record the loopback monitor: {exc}") from None
 
