@@ -59,6 +59,36 @@ def test_floors_of_identical_drops_are_zero_and_grow_with_spread():
     assert measures.floors(spread[:1], 0) == {}
 
 
+def test_floor_of_the_drop_mean_is_its_sampling_error():
+    rng = np.random.default_rng(4)
+    base = rng.standard_normal(300)
+    assert measures.mean_sampling_rmse(np.stack([base] * 6)) == 0.0  # a noiseless set: floor 0
+    f = measures.floors(np.stack([base] * 6), 1)
+    assert f["mean_sampling_rmse"] == 0.0 and f["drop_pairs_lsd_db"] == 0.0
+    # D drops with iid noise sigma: the mean's error is sigma / sqrt(D), and the estimate says so
+    for d in (3, 10):
+        drops = base + 0.2 * rng.standard_normal((d, 300))
+        assert np.isclose(measures.mean_sampling_rmse(drops), 0.2 / np.sqrt(d), rtol=0.15)
+        truth_mean = np.mean([measures.rmse(base, (base + 0.2 * rng.standard_normal((d, 300))).mean(axis=0))
+                              for _ in range(200)])
+        assert np.isclose(truth_mean, 0.2 / np.sqrt(d), rtol=0.05)  # what an oracle scores against the mean
+
+
+def test_gap_share_is_0_for_linear_1_at_the_floor_and_undefined_without_a_gap():
+    from hapticfx.evaluation.report import gap_share
+
+    rng = np.random.default_rng(0)
+    lin = rng.uniform(1.0, 2.0, 30)
+    floor = 0.6 * lin
+    assert gap_share(lin, lin, floor, rng, 200) == (0.0, 0.0, 0.0)
+    assert np.allclose(gap_share(floor, lin, floor, rng, 200), 1.0)
+    half = gap_share(0.8 * lin, lin, floor, rng, 200)
+    assert np.isclose(half[0], 0.5) and half[1] <= 0.5 <= half[2]
+    assert np.isnan(gap_share(0.9 * lin, lin, 1.1 * lin, rng, 200)[0])  # floor worse than linear: no gap
+    up = gap_share(lin + 0.1, lin, lin + 0.2, rng, 200, higher=True)  # ST-SIM-like: the ceiling above
+    assert np.allclose(up, 0.5)
+
+
 def test_lovo_predicts_every_interior_velocity_of_every_object_once(uneven):
     banks = {o: uneven.bank(o, "max-min") for o in uneven.objects}
     rounds = lovo_rounds(banks)
@@ -120,6 +150,18 @@ def test_run_scores_every_fold_and_ratios_are_paired(uneven):
     assert np.isclose(mid, mean_ratio)  # folds are paired one to one: ratio of sums = ratio of means
     assert set(summary["objects"]) == {"wood-beam", "steel-plate"}
     json.dumps(results)
+    for e in results["methods"]["linear"]["folds"]:
+        assert all(np.isfinite(e[k]) for k in ("rmse_mean", "stsim", "spqi")) and 0 <= e["stsim"] <= 1.5
+    # an oracle at the floors captures the whole gap; linear none of it
+    floors = {(f["object"], f["velocity"]): f for f in results["folds"]}
+    oracle = [{**e, "rmse": floors[(e["object"], e["velocity"])]["mean_of_others_rmse"],
+               "rmse_mean": floors[(e["object"], e["velocity"])]["mean_sampling_rmse"]}
+              for e in results["methods"]["linear"]["folds"]]
+    results["methods"]["oracle"] = {**results["methods"]["linear"], "folds": oracle}
+    summary = summarise(results, boot=300)
+    assert summary["methods"]["linear"]["rmse_mean_share"] == (0.0, 0.0, 0.0)
+    assert np.allclose(summary["methods"]["oracle"]["rmse_share"], 1.0)
+    assert np.allclose(summary["methods"]["oracle"]["rmse_mean_share"], 1.0)
 
 
 def test_a_method_that_cannot_run_is_reported_not_fatal(tiny_dataset):

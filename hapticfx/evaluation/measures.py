@@ -55,22 +55,44 @@ def peak_error_db(pred, truth) -> np.ndarray:
     return 20.0 * np.log10(np.maximum(pa, tiny) / np.maximum(pb, tiny))
 
 
+def mean_sampling_rmse(drops) -> float:
+    """The sampling error of the mean of ``drops`` ``(D, N)``: ``sqrt(mean_t s_t^2 / D)`` (``s_t``: sample SD).
+
+    The expected RMSE, against the mean of these D drops, of a prediction equal to the true
+    population mean (a method that knew the velocity's response exactly, less its drop-to-drop
+    noise): the floor of the "RMSE vs the held-out drops' mean" measure. With ``ddof=1`` its
+    square is unbiased; a bootstrap of the drops estimates the same quantity ((D-1)/D of the square).
+    """
+    d = valid_signal(drops, name="drops", ndim=2)
+    if len(d) < 2:
+        return float("nan")
+    centred = d.astype(np.float64) - d[0]  # shift-invariant; exactly 0 for identical drops
+    return float(np.sqrt(np.mean(np.var(centred, axis=0, ddof=1)) / len(d)))
+
+
 def floors(drops: np.ndarray, rep: int, *, rate_hz: float = 1000.0) -> dict[str, float]:
     """What the recorded drops at one velocity say is achievable against the representative ``drops[rep]``.
 
     ``drop_to_drop_*``: each other drop taken as the prediction (mean over them): the
     spread of the recordings themselves. ``mean_of_others_rmse``: the per-sample mean
     of the other drops as the prediction: what a method that knew everything about
-    this velocity except the representative's own noise could reach in RMSE.
+    this velocity except the representative's own noise could reach in RMSE (partly
+    circular: the representative is the medoid of these same drops). ``mean_sampling_rmse``:
+    the floor against the mean of all the drops (:func:`mean_sampling_rmse`).
+    ``drop_pairs_lsd_db``: each drop against every other (mean log-spectral distance): what
+    a real drop scores on the "LSD vs every drop" measure.
     """
     d = valid_signal(drops, name="drops", ndim=2)
     truth = d[rep]
     others = np.delete(d, rep, axis=0)
     if len(others) == 0:
         return {}
+    pairs = log_spectral_distance(d[:, None, :], d[None, :, :], rate_hz=rate_hz)
     return {
         "drop_to_drop_rmse": float(np.mean(rmse(others, truth))),
         "drop_to_drop_lsd_db": float(np.mean(log_spectral_distance(others, truth, rate_hz=rate_hz))),
         "drop_to_drop_peak_db": float(np.mean(np.abs(peak_error_db(others, truth)))),
         "mean_of_others_rmse": float(rmse(others.mean(axis=0), truth)),
+        "mean_sampling_rmse": mean_sampling_rmse(d),
+        "drop_pairs_lsd_db": float(pairs[~np.eye(len(d), dtype=bool)].mean()),
     }

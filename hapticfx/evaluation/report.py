@@ -11,20 +11,62 @@ from pathlib import Path
 
 import numpy as np
 
-MEASURES = (  # key in a fold entry, label, transform
-    ("rmse", "RMSE vs representative (g)", None),
-    ("rmse_drops", "RMSE vs every drop (g)", None),
-    ("lsd_db", "log-spectral distance 20-500 Hz (dB)", None),
-    ("peak_db", "|peak error| (dB)", np.abs),
+MEASURES = (  # key in a fold entry, label, transform, the floor its gap share is measured to, higher is better
+    ("rmse", "RMSE vs representative (g)", None, "mean_of_others_rmse", False),
+    ("rmse_mean", "RMSE vs the mean of the held-out drops (g)", None, "mean_sampling_rmse", False),
+    ("rmse_drops", "RMSE vs every drop (g)", None, None, False),
+    ("lsd_db", "log-spectral distance 20-500 Hz vs representative (dB)", None, None, False),
+    ("lsd_drops_db", "log-spectral distance 20-500 Hz vs every drop (dB)", None, "drop_pairs_lsd_db", False),
+    ("peak_db", "|peak error| (dB)", np.abs, None, False),
+    ("stsim", "ST-SIM vs every drop (1 = identical; higher is better)", None, "drop_to_drop_stsim", True),
+    ("spqi", "SPQI vs every drop (1 = identical; higher is better)", None, "drop_to_drop_spqi", True),
 )
+FLOOR_ROWS = {  # measure -> floors shown under its table
+    "rmse": ["drop_to_drop_rmse", "mean_of_others_rmse"], "rmse_mean": ["mean_sampling_rmse"],
+    "lsd_db": ["drop_to_drop_lsd_db"], "lsd_drops_db": ["drop_pairs_lsd_db"], "peak_db": ["drop_to_drop_peak_db"],
+    "stsim": ["drop_to_drop_stsim"], "spqi": ["drop_to_drop_spqi"],
+}
+FLOOR_LABELS = {
+    "drop_to_drop_rmse": "floor: another drop at the same velocity",
+    "mean_of_others_rmse": "floor: mean of the other drops (partly circular: the representative is their medoid)",
+    "mean_sampling_rmse": "floor: sampling error of the drops' mean",
+    "drop_to_drop_lsd_db": "floor: another drop at the same velocity",
+    "drop_pairs_lsd_db": "floor: a recorded drop against the others",
+    "drop_to_drop_peak_db": "floor: another drop at the same velocity",
+    "drop_to_drop_stsim": "ceiling: a recorded drop against the others",
+    "drop_to_drop_spqi": "ceiling: a recorded drop against the others",
+}
 
 
 def _paired(values: np.ndarray, base: np.ndarray, rng: np.random.Generator, boot: int) -> tuple[float, float, float]:
-    ratio = float(values.sum() / base.sum())
     idx = rng.integers(0, len(values), size=(boot, len(values)))
-    samples = values[idx].sum(axis=1) / base[idx].sum(axis=1)
-    lo, hi = np.percentile(samples, [2.5, 97.5])
+    with np.errstate(divide="ignore", invalid="ignore"):  # a measure linear scores 0 on (a saturated SPQI)
+        ratio = float(values.sum() / base.sum())
+        samples = values[idx].sum(axis=1) / base[idx].sum(axis=1)
+    lo, hi = np.nanpercentile(samples, [2.5, 97.5]) if np.isfinite(samples).any() else (np.nan, np.nan)
     return ratio, float(lo), float(hi)
+
+
+def gap_share(values: np.ndarray, base: np.ndarray, floor: np.ndarray, rng: np.random.Generator, boot: int, *,
+              higher: bool = False) -> tuple[float, float, float]:
+    """``(linear - method) / (linear - floor)`` over the folds' sums, with a 95 % bootstrap CI over folds.
+
+    0: no better than linear; 1: at the floor (for a higher-is-better measure the same formula
+    with the ceiling). NaN when the floor is not better than linear on the whole set: there is
+    no gap to share (the CI is NaN too when a resample has none).
+    """
+    def share(v, b, f):
+        gap = (f - b) if higher else (b - f)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(gap > 1e-12 * np.maximum(np.abs(b), 1e-300), (b - v) / (b - f), np.nan)
+
+    point = float(share(values.sum(), base.sum(), floor.sum()))
+    idx = rng.integers(0, len(values), size=(boot, len(values)))
+    samples = share(values[idx].sum(axis=1), base[idx].sum(axis=1), floor[idx].sum(axis=1))
+    if np.isnan(point) or np.isnan(samples).any():
+        return point, float("nan"), float("nan")
+    lo, hi = np.percentile(samples, [2.5, 97.5])
+    return point, float(lo), float(hi)
 
 
 def summarise(results: dict, *, boot: int = 2000, seed: int = 0) -> dict:
@@ -34,7 +76,8 @@ def summarise(results: dict, *, boot: int = 2000, seed: int = 0) -> dict:
     lin = {(e["object"], e["velocity"]): e for e in rows["linear"]["folds"]}
     out = {"floors": {}, "methods": {}, "objects": {}}
     folds = results["folds"]
-    for key in ("drop_to_drop_rmse", "mean_of_others_rmse", "drop_to_drop_lsd_db", "drop_to_drop_peak_db"):
+    floor_of = {(f["object"], f["velocity"]): f for f in folds}
+    for key in FLOOR_LABELS:
         vals = [f[key] for f in folds if key in f]
         if vals:
             out["floors"][key] = float(np.mean(vals))
@@ -44,7 +87,7 @@ def summarise(results: dict, *, boot: int = 2000, seed: int = 0) -> dict:
             continue
         entries = row["folds"]
         s = {"n": len(entries), "fit_s": float(np.mean([f["fit_s"] for f in row["fits"]]))}
-        for key, _, fn in MEASURES:
+        for key, _, fn, floor_key, higher in MEASURES:
             if not all(key in e for e in entries):
                 continue
             v = np.array([e[key] for e in entries])
@@ -53,7 +96,10 @@ def summarise(results: dict, *, boot: int = 2000, seed: int = 0) -> dict:
                 v, b = fn(v), fn(b)
             s[key] = float(v.mean())
             s[f"{key}_ratio"] = _paired(v, b, rng, boot)
-            s[f"{key}_wins"] = int(np.sum(v < b))
+            s[f"{key}_wins"] = int(np.sum(v > b) if higher else np.sum(v < b))
+            floors = [floor_of[(e["object"], e["velocity"])].get(floor_key) for e in entries] if floor_key else [None]
+            if None not in floors and np.all(np.isfinite(floors)):
+                s[f"{key}_share"] = gap_share(v, b, np.array(floors, dtype=float), rng, boot, higher=higher)
         for k in ("latency_ms", "table_latency_ms"):
             if k in row:
                 s[k] = row[k]
@@ -85,26 +131,26 @@ def markdown(results: dict, summary: dict) -> str:
     """The tables of one run, in Markdown."""
     n = len(results["folds"])
     lines = [f"Dataset `{results['dataset']}` (reducer `{results['reducer']}`), protocol `{results['protocol']}`: "
-             f"{results['rounds']} rounds, {n} folds. Ratios are paired against linear on the same folds, "
-             "95 % bootstrap CI in brackets; lower is better for every measure.", ""]
+             f"{results['rounds']} rounds, {n} folds. Ratios are paired against linear on the same folds; "
+             "share of the gap = (linear - method) / (linear - floor); 95 % bootstrap CIs over folds in brackets. "
+             "Lower is better except for ST-SIM and SPQI.", ""]
     names = [m for m, s in summary["methods"].items() if "error" not in s]
-    for key, label, _ in MEASURES:
+    for key, label, _, floor_key, _ in MEASURES:
         if not all(key in summary["methods"][m] for m in names):
             continue
-        lines += [f"### {label}", "", "| method | mean | / linear [95 % CI] | folds better than linear |",
-                  "|---|---|---|---|"]
+        lines += [f"### {label}", "", "| method | mean | / linear [95 % CI] | share of the gap [95 % CI] "
+                  "| folds better than linear |", "|---|---|---|---|---|"]
         for m in names:
             s = summary["methods"][m]
-            lines.append(f"| {m} | {s[key]:.4f} | {_ci(s[f'{key}_ratio'])} | {s[f'{key}_wins']}/{s['n']} |")
+            share = "-" if f"{key}_share" not in s else (
+                _ci(s[f"{key}_share"]) if np.isfinite(s[f"{key}_share"][0]) else "no gap: floor not better than linear")
+            lines.append(f"| {m} | {s[key]:.4f} | {_ci(s[f'{key}_ratio'])} | {share} | {s[f'{key}_wins']}/{s['n']} |")
         fl = summary["floors"]
-        floor_key = {"rmse": ["drop_to_drop_rmse", "mean_of_others_rmse"], "lsd_db": ["drop_to_drop_lsd_db"],
-                     "peak_db": ["drop_to_drop_peak_db"]}.get(key, [])
         base = summary["methods"]["linear"][key]
-        for fk in floor_key:
+        for fk in FLOOR_ROWS.get(key, []):
             if fk in fl:
-                what = ("floor: another drop at the same velocity" if fk.startswith("drop_to_drop")
-                        else "floor: mean of the other drops at the same velocity")
-                lines.append(f"| *{what}* | {fl[fk]:.4f} | {fl[fk] / base:.3f} | |")
+                lines.append(f"| *{FLOOR_LABELS[fk]}* | {fl[fk]:.4f} | {fl[fk] / base:.3f} | "
+                             f"{'1' if fk == floor_key else ''} | |")
         lines.append("")
     lines += ["### Run time", "", "| method | fit per round (s) | direct median / p99 (ms) | served from a table "
               "median / p99 (ms) | table vs direct (max relative) |", "|---|---|---|---|---|"]

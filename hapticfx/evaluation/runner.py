@@ -1,8 +1,10 @@
 """Running interpolators over evaluation rounds: fit on the training data, predict the held-out folds.
 
 Every method sees the same rounds. Per fold it is scored against the held-out
-representative and against every recorded drop at that velocity, beside the floors
-those drops set (:func:`hapticfx.evaluation.measures.floors`). A method that can
+representative, against every recorded drop at that velocity and against their mean,
+in RMSE, log-spectral distance and the perceptual ST-SIM and SPQI (against every drop;
+:mod:`hapticfx.evaluation.perceptual`), beside the floors those drops set
+(:func:`hapticfx.evaluation.measures.floors`). A method that can
 serve a velocity table (``tabulate``) is also served from one, and the table's
 answer is compared with the method's own.
 """
@@ -22,7 +24,7 @@ from ..data.training import recorded_drops, training_data
 from ..errors import EffectError, HapticfxError
 from ..registry import get_registry
 from ..timing import measure
-from . import measures
+from . import measures, perceptual
 from .folds import rounds_for
 
 
@@ -88,7 +90,9 @@ def _scores(pred, truth, drops, rate_hz: float) -> dict:
            "peak_db": float(measures.peak_error_db(pred, truth))}
     if drops is not None:
         out["rmse_drops"] = float(np.mean(measures.rmse(pred, drops)))
+        out["rmse_mean"] = float(measures.rmse(pred, drops.mean(axis=0)))
         out["lsd_drops_db"] = float(np.mean(measures.log_spectral_distance(pred, drops, rate_hz=rate_hz)))
+    out.update(perceptual.scores(pred, truth[None] if drops is None else drops, rate_hz=rate_hz))
     return out
 
 
@@ -108,7 +112,8 @@ def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, pro
         for f in rnd.folds:
             truth, drops, rep = _fold_truth(dataset, f.object, reducer, f.velocity, drops_cache)
             truths[f] = (truth, drops)
-            floor = measures.floors(drops, rep, rate_hz=rate) if drops is not None else {}
+            floor = {**measures.floors(drops, rep, rate_hz=rate), **perceptual.drop_pairs(drops, rate_hz=rate)} \
+                if drops is not None else {}
             folds.append({"object": f.object, "velocity": f.velocity, "round": k, **floor})
         for m in methods:
             row = rows[m.row]
