@@ -14,7 +14,11 @@ the ``on_played`` callback (:class:`Playback`) and are not kept.
 Time: ``at`` (the simulation time of the collision) is recorded with each
 impact and not used for scheduling: an impact plays as soon as its worker
 reaches it. The safety limiters run on the engine's own monotonic clock, so a
-sender cannot space out its timestamps to defeat a duty-cycle limit.
+sender cannot space out its timestamps to defeat a duty-cycle limit. A file
+output (``takes_time``) places each impact at its time on the session's
+timeline instead: its arrival since the engine started, or, when it carries
+``at``, that time, shifted once so that the first impact with an ``at`` lies
+where it arrived; the file limits the sum in its own time.
 """
 
 from __future__ import annotations
@@ -97,6 +101,7 @@ class _Job:
     received: float
     point: tuple[float, float, float] | None = None
     normal: tuple[float, float, float] | None = None
+    timeline_s: float = 0.0  # where a file output places it (see the module's docstring)
 
 
 @dataclass
@@ -135,9 +140,11 @@ class _Output:
         return [self.actuator] if self.sites is None else [s.actuator for s in self.sites]
 
 
-def _play_on(actuator: Actuator, signal: Signal, received: float) -> None:
+def _play_on(actuator: Actuator, signal: Signal, job: "_Job") -> None:
     if actuator.takes_received:
-        actuator.play(signal, received=received)
+        actuator.play(signal, received=job.received)
+    elif actuator.takes_time:
+        actuator.play(signal, at_s=job.timeline_s)
     else:
         actuator.play(signal)
 
@@ -184,6 +191,8 @@ class Engine:
         self._log = RateLimitedLog(log)
         self._closed = False
         self._t0 = time.monotonic()
+        self._t0_received = time.perf_counter()  # the session's start, on the clock arrivals are stamped with
+        self._at_origin: float | None = None  # sender time - session time, from the first impact with an ``at``
         self._open_outputs()
         for out in self._outputs.values():
             out.worker = threading.Thread(target=self._run, args=(out,), name=f"hapticfx-engine:{out.name}", daemon=True)
@@ -292,6 +301,11 @@ class Engine:
         with self._lock:
             if self._closed:  # checked under the lock: nothing is queued once close() began
                 raise HapticfxError("the engine is closed")
+            job.timeline_s = received - self._t0_received
+            if at is not None:
+                if self._at_origin is None:
+                    self._at_origin = at - job.timeline_s
+                job.timeline_s = at - self._at_origin
             try:
                 out.queue.put_nowait(job)
             except queue.Full:
@@ -348,7 +362,7 @@ class Engine:
                 before = out.limiter.report().total
                 signal = Signal.adopt(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)
                 limited = limited or out.limiter.report().total > before
-            _play_on(out.actuator, signal, job.received)
+            _play_on(out.actuator, signal, job)
         for note in delivery.notes:
             self._log.event(("note", job.object), f"{job.object}: {note}")
         playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,
@@ -379,7 +393,7 @@ class Engine:
                 before = site.limiter.report().total
                 per_site[k] = site.limiter.process(per_site[k], at_s=now)
                 limited = limited or site.limiter.report().total > before
-            _play_on(site.actuator, Signal.adopt(per_site[k], rate), job.received)
+            _play_on(site.actuator, Signal.adopt(per_site[k], rate), job)
         return Signal.adopt(per_site, rate), limited
 
     def _failed(self, out: _Output, job: _Job, exc: Exception) -> None:

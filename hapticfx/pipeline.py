@@ -12,7 +12,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .actuators.virtual import MemoryActuator, WavActuator
+from .actuators.virtual import CsvActuator, MemoryActuator, WavActuator
 from .atomic import user_path
 from .effect import Effect, Plan, check_effect, effective_limits, load_effect
 from .errors import DeviceError, EffectError, HapticfxError
@@ -45,15 +45,16 @@ def _limits(limits) -> dict:
 
 
 def stand_in(device: str | int | None) -> tuple[type, str | None] | None:
-    """The virtual actuator a ``--device`` value names (``wav:PATH``, ``memory``), if any."""
+    """The virtual actuator a ``--device`` value names (``wav:PATH``, ``csv:PATH``, ``memory``), if any."""
     if isinstance(device, str):
         if device == "memory":
             return MemoryActuator, None
-        if device.startswith("wav:"):
-            path = device[4:]
-            if not path:
-                raise DeviceError("--device wav:PATH needs a file name after 'wav:'")
-            return WavActuator, path
+        for cls in (WavActuator, CsvActuator):
+            if device.startswith(f"{cls.name}:"):
+                path = device[len(cls.name) + 1:]
+                if not path:
+                    raise DeviceError(f"--device {cls.name}:PATH needs a file name after '{cls.name}:'")
+                return cls, path
     return None
 
 
@@ -76,7 +77,7 @@ def build_actuator(plan: Plan, effect: Effect, device: str | int | None) -> Actu
         return device_actuator
     cls, path = virtual
     # A file named on the command line or in code is the caller's explicit choice (the CLI asks for --force).
-    params = cls.Params(path=str(user_path(path)), overwrite=True) if cls is WavActuator else cls.Params()
+    params = cls.Params(path=str(user_path(path)), overwrite=True) if path is not None else cls.Params()
     return cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
 
 
@@ -159,7 +160,10 @@ class Pipeline:
         if not self._opened:
             raise DeviceError("the pipeline is not open: use `with pipeline:` or call open() first")
         delivery = self.render(velocity=velocity, object=object)
-        self.actuator.play(delivery.output)
+        if self.actuator.takes_time:  # a file: the impact at its time since the pipeline was made
+            self.actuator.play(delivery.output, at_s=delivery.impact.time_s)
+        else:
+            self.actuator.play(delivery.output)
         return delivery
 
     def describe(self) -> dict:

@@ -208,11 +208,12 @@ def load_scene(path: str | Path) -> Scene:
 
 
 def stand_in_for(device: str | int | None, output: str, n_outputs: int) -> str | int | None:
-    """The ``--device`` override for one output group; ``wav:PATH`` gets one file per group."""
-    if n_outputs > 1 and isinstance(device, str) and device.startswith("wav:") and len(device) > 4:
-        path = Path(device[4:])
+    """The ``--device`` override for one output group; ``wav:PATH`` or ``csv:PATH`` gets one file per group."""
+    kind, _, file = device.partition(":") if isinstance(device, str) else ("", "", "")
+    if n_outputs > 1 and kind in ("wav", "csv") and file:
+        path = Path(file)
         tag = "".join(c if c.isalnum() or c in "-_" else "_" for c in output)
-        return f"wav:{path.with_name(f'{path.stem}-{tag}{path.suffix}')}"
+        return f"{kind}:{path.with_name(f'{path.stem}-{tag}{path.suffix}')}"
     return device
 
 

@@ -153,16 +153,19 @@ def test_the_helmet_plays_every_site_a_block_of_one_length_on_its_own_file(tmp_p
     wav = tmp_path / "helmet.wav"
     with Engine(HELMET, device=f"wav:{wav}") as engine:
         engine.impact("steel-plate", 4.2, at=0.5, point=(0.0, 0.0, R))
-        engine.impact("wood-beam", 3.0, at=1.0, point=(R, 0.0, 0.065))
-        engine.impact("concrete-brick", 2.5, channel=1)
+        engine.impact("wood-beam", 3.0, at=1.5, point=(R, 0.0, 0.065))
+        engine.impact("concrete-brick", 2.5, at=2.5, channel=1)
         with pytest.raises(EffectError, match=r"head's channels \[0, 1, 2, 3\], not 7"):
             engine.impact("concrete-brick", 2.5, channel=7)
     files = sorted(tmp_path.glob("helmet-*.wav"))
     assert [f.name for f in files] == [f"helmet-actuators_helmet_{k}.wav" for k in range(4)]
+    rate = read_wav(files[0])[0]
     signals = [read_wav(f)[1][0] for f in files]
     assert len({s.size for s in signals}) == 1
-    n = signals[0].size // 3  # three impacts of one length each (the effects' profiles are of one length)
-    peaks = np.array([[np.abs(s[i * n:(i + 1) * n]).max() for s in signals] for i in range(3)])
+    # each file holds the impacts at their times, 1 s apart (the effects' profiles are of one length)
+    n = signals[0].size - 2 * rate
+    assert 0 < n <= rate
+    peaks = np.array([[np.abs(s[i * rate:i * rate + n]).max() for s in signals] for i in range(3)])
     assert np.count_nonzero(peaks[0]) == 1 and peaks[0, 0] > 0   # the crown
     assert np.count_nonzero(peaks[1]) == 1 and peaks[1, 3] > 0   # the right ear's actuator
     assert np.count_nonzero(peaks[2]) == 1 and peaks[2, 1] > 0   # channel 1: the front

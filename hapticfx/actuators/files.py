@@ -1,4 +1,4 @@
-"""Writers for rendered signals: WAV (streamed, PCM by default) and CSV, both atomic.
+"""Writers for rendered signals: WAV (streamed, PCM by default) and CSV (whole or streamed), all atomic.
 
 Every WAV hapticfx writes names its software in a ``LIST/INFO/ISFT`` chunk, and
 every PNG in a ``Software`` text chunk, so that an output path holding a file
@@ -8,6 +8,7 @@ hapticfx did not write is not replaced without an explicit ``--force`` /
 
 from __future__ import annotations
 
+import io
 import os
 import struct
 import tempfile
@@ -55,38 +56,22 @@ def _encode(samples: np.ndarray, fmt: str) -> bytes:
     return ints.view(np.uint8).reshape(-1, 4)[:, :3].tobytes()  # the low three bytes of each sample
 
 
-class WavWriter:
-    """Streams frames into a temporary file beside ``path``; :meth:`close` moves it into place whole.
+class _StreamedFile:
+    """A file streamed into a temporary file beside ``path``; :meth:`_finish` moves it into place whole.
 
     Nothing partial ever appears at ``path``: a failure (disk full, read-only
     directory) raises :class:`DeviceError` and removes the temporary file.
     """
 
-    def __init__(self, path: Path, rate_hz: float, channels: int = 1, *, fmt: str = DEFAULT_WAV_FORMAT):
-        if fmt not in WAV_FORMATS:
-            raise DeviceError(f"unknown WAV format {fmt!r}; one of: {', '.join(WAV_FORMATS)}")
-        if abs(rate_hz - round(rate_hz)) > 1e-6:
-            raise DeviceError(f"{path}: WAV needs an integer sample rate, got {rate_hz}")
-        self.path, self.fmt, self.channels = Path(path), fmt, int(channels)
-        self.rate = int(round(rate_hz))
-        self.frames = 0
-        tag, width = WAV_FORMATS[fmt]
-        fmt_chunk = struct.pack("<HHIIHH", tag, self.channels, self.rate, self.rate * self.channels * width,
-                                self.channels * width, 8 * width)
-        info = b"INFO" + b"ISFT" + struct.pack("<I", 10) + SOFTWARE + b"\x00\x00"
-        self._header = (b"fmt " + struct.pack("<I", len(fmt_chunk)) + fmt_chunk
-                        + b"LIST" + struct.pack("<I", len(info)) + info)
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self.bytes = 0  # written so far, header included
         try:
             fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
         except OSError as exc:
             raise DeviceError(f"{self.path}: cannot write: {exc.strerror}") from None
         self._tmp = Path(tmp)
         self._file = os.fdopen(fd, "wb")
-        self._write(self._riff(0))
-
-    def _riff(self, data_bytes: int) -> bytes:
-        return (b"RIFF" + struct.pack("<I", 4 + len(self._header) + 8 + data_bytes) + b"WAVE" + self._header
-                + b"data" + struct.pack("<I", data_bytes))
 
     def _write(self, data: bytes) -> None:
         try:
@@ -94,21 +79,14 @@ class WavWriter:
         except OSError as exc:
             self.abort()
             raise DeviceError(f"{self.path}: cannot write: {exc.strerror}") from None
+        self.bytes += len(data)
 
-    def write(self, samples: np.ndarray) -> None:
-        """Append ``samples`` (channels, N) or (N,), normalised to [-1, 1]."""
-        block = np.atleast_2d(np.asarray(samples, dtype=np.float64))
-        if block.shape[0] != self.channels:
-            raise DeviceError(f"{self.path}: {block.shape[0]} channels, the file has {self.channels}")
-        self._write(_encode(block, self.fmt))
-        self.frames += block.shape[1]
-
-    def close(self) -> Path:
-        """Finish the header and move the file into place atomically."""
-        data_bytes = self.frames * self.channels * WAV_FORMATS[self.fmt][1]
+    def _finish(self, header: bytes = b"") -> Path:
+        """Write ``header`` over the file's first bytes (a size known only now), then move it into place."""
         try:
-            self._file.seek(0)
-            self._file.write(self._riff(data_bytes))
+            if header:
+                self._file.seek(0)
+                self._file.write(header)
             self._file.flush()
             os.fsync(self._file.fileno())
             self._file.close()
@@ -126,6 +104,77 @@ class WavWriter:
         except OSError:
             pass
         self._tmp.unlink(missing_ok=True)
+
+
+class WavWriter(_StreamedFile):
+    """Streams frames into a WAV file that appears at ``path`` whole on :meth:`close`, or not at all."""
+
+    def __init__(self, path: Path, rate_hz: float, channels: int = 1, *, fmt: str = DEFAULT_WAV_FORMAT):
+        if fmt not in WAV_FORMATS:
+            raise DeviceError(f"unknown WAV format {fmt!r}; one of: {', '.join(WAV_FORMATS)}")
+        if abs(rate_hz - round(rate_hz)) > 1e-6:
+            raise DeviceError(f"{path}: WAV needs an integer sample rate, got {rate_hz}")
+        self.fmt, self.channels = fmt, int(channels)
+        self.rate = int(round(rate_hz))
+        self.frames = 0
+        tag, width = WAV_FORMATS[fmt]
+        self.frame_bytes = self.channels * width
+        fmt_chunk = struct.pack("<HHIIHH", tag, self.channels, self.rate, self.rate * self.frame_bytes,
+                                self.frame_bytes, 8 * width)
+        info = b"INFO" + b"ISFT" + struct.pack("<I", 10) + SOFTWARE + b"\x00\x00"
+        self._header = (b"fmt " + struct.pack("<I", len(fmt_chunk)) + fmt_chunk
+                        + b"LIST" + struct.pack("<I", len(info)) + info)
+        # RIFF sizes are 32-bit: the most frames a WAV file can hold
+        self.max_frames = (2**32 - 1 - 4 - len(self._header) - 8) // self.frame_bytes
+        super().__init__(path)
+        self._write(self._riff(0))
+
+    def _riff(self, data_bytes: int) -> bytes:
+        return (b"RIFF" + struct.pack("<I", 4 + len(self._header) + 8 + data_bytes) + b"WAVE" + self._header
+                + b"data" + struct.pack("<I", data_bytes))
+
+    def write(self, samples: np.ndarray) -> None:
+        """Append ``samples`` (channels, N) or (N,), normalised to [-1, 1]."""
+        block = np.atleast_2d(np.asarray(samples, dtype=np.float64))
+        if block.shape[0] != self.channels:
+            raise DeviceError(f"{self.path}: {block.shape[0]} channels, the file has {self.channels}")
+        if self.frames + block.shape[1] > self.max_frames:
+            self.abort()
+            raise DeviceError(f"{self.path}: a WAV file holds at most {self.max_frames} frames")
+        self._write(_encode(block, self.fmt))
+        self.frames += block.shape[1]
+
+    def close(self) -> Path:
+        """Finish the header and move the file into place atomically."""
+        return self._finish(self._riff(self.frames * self.frame_bytes))
+
+
+class CsvWriter(_StreamedFile):
+    """Streams frames into a CSV file (``t_s`` and one column per channel) that appears whole on :meth:`close`."""
+
+    # the longest row: t_s as %.8f up to 1e7 s (17), each value as %.9g in [-1, 1] (15), separators, newline
+    def __init__(self, path: Path, rate_hz: float, channels: int = 1):
+        self.rate, self.channels, self.frames = float(rate_hz), int(channels), 0
+        self.frame_bytes = 17 + 16 * self.channels + 1
+        self.max_frames = int(1e7 * self.rate)
+        super().__init__(path)
+        names = ["out"] if self.channels == 1 else [f"ch{c}" for c in range(self.channels)]
+        self._write(("t_s," + ",".join(names) + "\n").encode())
+
+    def write(self, samples: np.ndarray) -> None:
+        """Append ``samples`` (channels, N) or (N,), normalised to [-1, 1]."""
+        block = np.clip(np.atleast_2d(np.asarray(samples, dtype=np.float64)), -1.0, 1.0)
+        if block.shape[0] != self.channels:
+            raise DeviceError(f"{self.path}: {block.shape[0]} channels, the file has {self.channels}")
+        t = (self.frames + np.arange(block.shape[1])) / self.rate
+        rows = io.StringIO()
+        np.savetxt(rows, np.column_stack([t, block.T]), delimiter=",", fmt=["%.8f"] + ["%.9g"] * self.channels)
+        self._write(rows.getvalue().encode())
+        self.frames += block.shape[1]
+
+    def close(self) -> Path:
+        """Move the file into place atomically."""
+        return self._finish()
 
 
 def _umask() -> int:

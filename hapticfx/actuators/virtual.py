@@ -1,4 +1,4 @@
-"""Actuators with no hardware: a WAV file, and memory.
+"""Actuators with no hardware: a WAV or CSV file, and memory.
 
 Either can stand in for another actuator (``--device wav:PATH``): it then
 takes that actuator's spec, so the output has the rate, band and limits the
@@ -7,19 +7,19 @@ real device would get.
 
 from __future__ import annotations
 
+import abc
 import threading
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Literal
-
-import numpy as np
 
 from ..atomic import user_path
 from ..errors import DeviceError, HapticfxError
 from ..interfaces import Actuator, ActuatorSpec
 from ..params import BuildContext, doc
 from ..signal import Signal
-from .files import DEFAULT_WAV_FORMAT, WavWriter, check_overwrite
+from .files import DEFAULT_WAV_FORMAT, CsvWriter, WavWriter, check_overwrite
+from .timeline import Timeline
 
 
 def _plain_spec(rate_hz: float) -> ActuatorSpec:
@@ -68,37 +68,39 @@ class MemoryActuator(Actuator):
         return "memory"
 
 
-class WavActuator(Actuator):
-    """Writes everything played to one WAV file (24-bit PCM by default), streamed, moved into place on close.
+class _FileActuator(Actuator):
+    """Writes a session to one file on its own timeline (:class:`~hapticfx.actuators.timeline.Timeline`).
 
-    Impacts played one after another are written back to back as they come, so
-    memory stays bounded and a write failure is raised at once; the file appears
-    whole at ``close()`` or not at all. An existing file that hapticfx did not
-    write is kept unless ``overwrite`` is set.
+    Each impact lies at its time (``play(signal, at_s=...)``; an engine passes
+    the impact's time: the sender's when it gave one, else its arrival), the
+    first at 0; an impact without a time follows the last one. Overlapping
+    impacts sum, and the safety limiter runs on the sum in the file's own time,
+    so the file holds its limits (peak, RMS over its window) sample for sample.
+    The file is streamed to a temporary file, bounded by ``max_mib``, and moved
+    into place whole at ``close()`` or not at all. An existing file that
+    hapticfx did not write is kept unless ``overwrite`` is set.
     """
 
-    name = "wav"
+    limits_mix = True  # it sums what it is given and limits the sum itself
+    takes_time = True
 
-    @dataclass(frozen=True)
-    class Params:
-        path: str | None = field(default=None, metadata=doc("output file; default: the device given on the command line"))
-        rate_hz: float = field(default=48000.0, metadata=doc("output sample rate (Hz)", min=100.0, max=384000.0))
-        format: Literal["pcm16", "pcm24", "float32"] = field(
-            default=DEFAULT_WAV_FORMAT, metadata=doc("sample format: 16- or 24-bit PCM (read by every tool), or float"))
-        overwrite: bool = field(default=False, metadata=doc("replace an existing file that hapticfx did not write"))
-
-    def __init__(self, params: "WavActuator.Params" = Params(), context: BuildContext = BuildContext(), *, spec: ActuatorSpec | None = None):
+    def __init__(self, params, context: BuildContext = BuildContext(), *, spec: ActuatorSpec | None = None):
         target = params.path or (context.device if isinstance(context.device, str) else None)
         if not target:
-            raise DeviceError("the wav actuator needs a path (actuator.path, or --device wav:PATH)")
+            raise DeviceError(f"the {self.name} actuator needs a path (actuator.path, or --device {self.name}:PATH)")
         path = user_path(target)
         self.path = path if path.is_absolute() else context.base_dir / path if params.path else path
         self.params = params
         self.spec = spec or _plain_spec(params.rate_hz)
         self.limits = self.spec.limits
-        self._writer: WavWriter | None = None
+        self._timeline: Timeline | None = None
+        self._closed_counts: dict[str, int] = {}
         self._failed: DeviceError | None = None
         self._lock = threading.Lock()
+
+    @abc.abstractmethod
+    def _writer(self, channels: int):
+        """A new streamed file writer (:mod:`hapticfx.actuators.files`) for ``channels`` channels."""
 
     def open(self) -> None:
         if not self.path.parent.exists():
@@ -108,28 +110,76 @@ class WavActuator(Actuator):
         except HapticfxError as exc:
             raise DeviceError(str(exc)) from None
 
-    def play(self, signal: Signal) -> None:
+    def play(self, signal: Signal, at_s: float | None = None) -> None:
+        """Place ``signal`` at ``at_s`` seconds on the session's timeline (None: right after the last impact)."""
         if abs(signal.rate_hz - self.spec.rate_hz) > 1e-6:
-            raise DeviceError(f"wav actuator runs at {self.spec.rate_hz} Hz, got a signal at {signal.rate_hz} Hz")
-        block = np.atleast_2d(signal.samples)
+            raise DeviceError(f"{self.name} actuator runs at {self.spec.rate_hz} Hz, got a signal at {signal.rate_hz} Hz")
         with self._lock:
             if self._failed is not None:
                 raise self._failed  # the file is gone: every later impact fails the same way
             try:
-                if self._writer is None:
-                    self._writer = WavWriter(self.path, self.spec.rate_hz, block.shape[0], fmt=self.params.format)
-                self._writer.write(block)
+                if self._timeline is None:
+                    self._timeline = Timeline(self._writer, self.spec.rate_hz, self.limits,
+                                              max_bytes=int(self.params.max_mib * 2**20), name=str(self.path))
+                self._timeline.place(signal.samples, at_s)
             except DeviceError as exc:
-                self._failed, self._writer = exc, None
+                self._failed, self._timeline = exc, None
                 raise
 
     def close(self) -> None:
         with self._lock:
-            writer, self._writer = self._writer, None
+            timeline, self._timeline = self._timeline, None
             if self._failed is not None:
                 raise DeviceError(f"{self.path}: not written ({self._failed})")
-            if writer is not None:
-                writer.close()
+            if timeline is not None:
+                timeline.close()
+                self._closed_counts = {"placed_late": timeline.late, "cut_at_file_bound": timeline.cut}
+
+    def losses(self) -> dict[str, int]:
+        """Impacts moved later than their time (``placed_late``) or cut at the file's bound."""
+        with self._lock:
+            t = self._timeline
+            counts = {"placed_late": t.late, "cut_at_file_bound": t.cut} if t else self._closed_counts
+        return {k: v for k, v in counts.items() if v}
+
+
+@dataclass(frozen=True)
+class _FileParams:
+    path: str | None = field(default=None, metadata=doc("output file; default: the device given on the command line"))
+    rate_hz: float = field(default=48000.0, metadata=doc("output sample rate (Hz)", min=100.0, max=384000.0))
+    max_mib: float = field(default=512.0, metadata=doc(
+        "largest file (MiB); what a session would write beyond it is left out, and the log says so once",
+        min=0.001, max=65536.0))
+    overwrite: bool = field(default=False, metadata=doc("replace an existing file that hapticfx did not write"))
+
+
+class WavActuator(_FileActuator):
+    """Writes a session to one WAV file (24-bit PCM by default), each impact at its time, limited in the file's
+    time (see :class:`_FileActuator`)."""
+
+    name = "wav"
+
+    @dataclass(frozen=True)
+    class Params(_FileParams):
+        format: Literal["pcm16", "pcm24", "float32"] = field(
+            default=DEFAULT_WAV_FORMAT, metadata=doc("sample format: 16- or 24-bit PCM (read by every tool), or float"))
+
+    def _writer(self, channels: int) -> WavWriter:
+        return WavWriter(self.path, self.spec.rate_hz, channels, fmt=self.params.format)
 
     def describe(self) -> str:
         return f"WAV file {self.path}"
+
+
+class CsvActuator(_FileActuator):
+    """Writes a session to one CSV file (``t_s`` and a column per channel), each impact at its time, limited in
+    the file's time (see :class:`_FileActuator`)."""
+
+    name = "csv"
+    Params = _FileParams
+
+    def _writer(self, channels: int) -> CsvWriter:
+        return CsvWriter(self.path, self.spec.rate_hz, channels)
+
+    def describe(self) -> str:
+        return f"CSV file {self.path}"

@@ -21,6 +21,7 @@ def register_interpolators(register):
 @hookimpl
 def register_actuators(register):
     register("wav", lazy("hapticfx.actuators.virtual:WavActuator"))
+    register("csv", lazy("hapticfx.actuators.virtual:CsvActuator"))
     register("memory", lazy("hapticfx.actuators.virtual:MemoryActuator"))
 
 

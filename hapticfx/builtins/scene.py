@@ -112,7 +112,7 @@ def register_commands(app, bench):
         scene: Path = typer.Argument(..., help="Scene file (YAML)."),
         host: str = typer.Option(None, help="Address to bind (default: the scene's events.osc.host, else 127.0.0.1)."),
         port: int = typer.Option(None, min=0, max=65535, help="UDP port (default: the scene's events.osc.port, else 9000; 0: any free)."),
-        device: str = typer.Option(None, help="Replace every actuator: 'memory' or 'wav:PATH' (one file per output)."),
+        device: str = typer.Option(None, help="Replace every actuator: 'memory', 'wav:PATH' or 'csv:PATH' (one file per output, each impact at its time)."),
         stats_every: float = typer.Option(0.0, min=0.0, help="Print the counters as JSON every this many seconds (0: only at exit)."),
         duration: float = typer.Option(None, min=0.0, help="Stop after this many seconds (default: until Ctrl-C or SIGTERM)."),
         allow_remote: bool = typer.Option(False, "--allow-remote", help="Listen on an address other machines can "

@@ -17,7 +17,7 @@ HAPTIC_FILE_HELP = "or a haptic file (.haptic, .ahap, .android.json, .hjif: docs
 
 
 def _device(value: Optional[str]):
-    """A --device value: an index when it is a number, else a name or wav:PATH / memory."""
+    """A --device value: an index when it is a number, else a name or wav:PATH / csv:PATH / memory."""
     if value is None:
         return None
     return int(value) if value.strip().isdigit() else value
@@ -63,8 +63,8 @@ def play(
     object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
     device: Optional[str] = typer.Option(
         None, "--device", "-d",
-        help="Output device: a name or index for the effect's actuator, 'wav:PATH' to write a WAV file "
-             "at the actuator's rate, or 'memory'. Default: the effect's device.",
+        help="Output device: a name or index for the effect's actuator, 'wav:PATH' or 'csv:PATH' to write a "
+             "WAV or CSV file at the actuator's rate, or 'memory'. Default: the effect's device.",
     ),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):

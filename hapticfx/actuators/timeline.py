@@ -1,0 +1,131 @@
+"""A file output's own timeline: impacts placed at their times, summed, limited in the file's time, bounded.
+
+A session written to a file must hold what a device would have played: each
+impact where it happened, overlapping impacts summed, and the safety limits
+(peak, RMS over its window) true of the file's samples. The limiter therefore
+runs here, on the sum, in file time; the gaps between impacts are silence in
+the file, as they are in the limiter's windows.
+
+Impacts come in about the order of their times. Everything older than
+``hold_s`` before the latest impact is final: it is limited and written, so
+memory stays bounded however long the session; an impact placed before what
+is already written (more than ``hold_s`` out of order) starts at the first
+frame not yet written and is counted (``late``). The file holds at most
+``max_frames``: what would lie beyond is not written, counted (``cut``), and
+said once in the log.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Callable
+
+import numpy as np
+
+from ..interfaces import SafetyLimits
+from ..safety import SafetyLimiter
+
+log = logging.getLogger(__name__)
+
+BLOCK = 512  # frames the limiter takes at a time: one gain per block where the RMS limit acts
+SILENCE_CHUNK_S = 1.0
+
+
+class Timeline:
+    """Places impacts on one file's timeline and writes it, limited, through ``open_writer(channels)``.
+
+    ``open_writer`` is called at the first impact and returns a writer with
+    ``write(block)``, ``close()``, ``abort()``, ``frame_bytes`` and
+    ``max_frames`` (:class:`~hapticfx.actuators.files.WavWriter`,
+    :class:`~hapticfx.actuators.files.CsvWriter`). ``max_bytes`` bounds the
+    file's size. Not thread-safe: the actuator that owns it holds a lock.
+    """
+
+    def __init__(self, open_writer: Callable[[int], object], rate_hz: float, limits: SafetyLimits, *,
+                 max_bytes: int, hold_s: float = 2.0, name: str = "file"):
+        self.open_writer = open_writer
+        self.rate_hz = float(rate_hz)
+        self.limits = limits
+        self.max_bytes = int(max_bytes)
+        self.hold = int(round(hold_s * self.rate_hz))
+        self.name = name
+        self.writer = None
+        self.limiter: SafetyLimiter | None = None
+        self.max_frames = 0
+        self.origin_s: float | None = None  # the timeline time of the file's first frame: the first impact's
+        self.written = 0  # frames limited and written
+        self.end = 0  # the frame after the last impact's last sample: where an impact with no time goes
+        self.late = 0
+        self.cut = 0
+        self._buf = np.zeros((1, 0))  # frames written .. written + buf width, mixed, not yet limited
+
+    def place(self, samples: np.ndarray, at_s: float | None = None) -> None:
+        """Add ``samples`` (channels, N) at ``at_s`` seconds on the session's timeline (None: after the last)."""
+        block = np.atleast_2d(np.asarray(samples, dtype=np.float64))
+        if self.writer is None:
+            self._open(block.shape[0])
+        elif block.shape[0] != self._buf.shape[0]:
+            from ..errors import DeviceError
+
+            raise DeviceError(f"{self.name}: {block.shape[0]} channels, the file has {self._buf.shape[0]}")
+        if at_s is None:
+            start = self.end
+        else:
+            if self.origin_s is None:
+                self.origin_s = float(at_s) - self.end / self.rate_hz
+            start = int(round((float(at_s) - self.origin_s) * self.rate_hz))
+        if start < self.written:
+            self.late += 1
+            start = self.written
+        room = self.max_frames - start
+        if room < block.shape[1]:
+            if not self.cut:
+                mib = self.max_bytes / 2**20
+                log.warning("%s: the file reached its bound (%.3g MiB, %.1f s at %g Hz); impacts after %.1f s are "
+                            "not written", self.name, mib, self.max_frames / self.rate_hz, self.rate_hz,
+                            self.max_frames / self.rate_hz)
+            self.cut += 1
+            block = block[:, :max(0, room)]
+        self._flush(start - self.hold)
+        end = start + block.shape[1]
+        if block.shape[1]:
+            need = end - self.written - self._buf.shape[1]
+            if need > 0:
+                self._buf = np.concatenate([self._buf, np.zeros((self._buf.shape[0], need))], axis=1)
+            self._buf[:, start - self.written:end - self.written] += block
+        self.end = max(self.end, end)
+
+    def close(self):
+        """Write what is left and finish the file; returns its path, or None when nothing was placed."""
+        if self.writer is None:
+            return None
+        self._flush(self.end)
+        return self.writer.close()
+
+    def abort(self) -> None:
+        if self.writer is not None:
+            self.writer.abort()
+
+    def _open(self, channels: int) -> None:
+        self.writer = self.open_writer(channels)
+        self.limiter = SafetyLimiter(self.limits, self.rate_hz)
+        frame_bytes = self.writer.frame_bytes
+        self.max_frames = max(0, min(self.writer.max_frames, (self.max_bytes - self.writer.bytes) // frame_bytes))
+        self._buf = np.zeros((channels, 0))
+
+    def _flush(self, to: int) -> None:
+        """Limit and write every frame before ``to`` (no later than the bound)."""
+        to = min(to, self.max_frames)
+        mixed = min(to, self.written + self._buf.shape[1])
+        while self.written < mixed:  # what impacts were mixed into, through the limiter block by block
+            n = min(BLOCK, mixed - self.written)
+            out = self.limiter.process(self._buf[:, :n], at_s=self.written / self.rate_hz)
+            self.writer.write(out)
+            self._buf = self._buf[:, n:]
+            self.written += n
+        if self.written < to:  # silence after the last impact: the limiter counts it by its clock (at_s)
+            silence = np.zeros((self._buf.shape[0], int(SILENCE_CHUNK_S * self.rate_hz) or 1))
+            while self.written < to:
+                n = min(silence.shape[1], to - self.written)
+                self.writer.write(silence[:, :n])
+                self.written += n
