@@ -11,7 +11,6 @@ import random
 import shutil
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import time
@@ -194,20 +193,6 @@ def test_oscsend_from_liblo_is_understood(tmp_path):
     bridge = final["bridge"]
     assert bridge["accepted"] == 3 and bridge["dropped"]["wrong_types"] == 1
     assert final["engine"]["rendered"] == 3
-
-
-def test_unity_client_bytes_match_the_protocol():
-    """The C# client builds ',sfid' by hand; the same bytes, built here with struct, decode as intended."""
-    from hapticfx.osc import ImpactMessage, decode_message, parse_impact
-
-    def s(text):
-        b = text.encode() + b"\x00"
-        return b + b"\x00" * (-len(b) % 4)
-
-    data = s("/hapticfx/impact") + s(",sfid") + s("steel-plate") + struct.pack(">f", 4.5) + struct.pack(">i", -1) + struct.pack(">d", 3.25)
-    assert parse_impact(*decode_message(data)[1:]) == ImpactMessage("steel-plate", 4.5, None, 3.25)
-    cs = (Path(__file__).parents[1] / "examples/unity/HapticfxOscClient.cs").read_text()
-    assert 'WriteString(buf, ",sfid")' in cs and 'WriteString(buf, "/hapticfx/impact")' in cs
 
 
 def test_serve_errors_are_one_line_and_exit_2(tmp_path):
