@@ -39,6 +39,9 @@ def test_contact_velocity_matches_free_fall_bound():
         drop = room.SHELVES[c.object][1] + 0.15
         assert 0.3 <= c.velocity <= np.sqrt(2 * G * drop) + 0.5, c
         assert c.position[2] > room.HEAD_CENTRE_Z - 0.05  # on the helmet's upper half
+        # where on the head, in the head frame: on the sphere, the normal outwards through the point
+        assert np.linalg.norm(c.point) == pytest.approx(room.HEAD_RADIUS, abs=0.005) and c.point[2] > 0
+        assert np.linalg.norm(c.normal) == pytest.approx(1.0) and np.dot(c.normal, c.point) / room.HEAD_RADIUS > 0.99
 
 
 def room_record() -> GroundMotion:
@@ -82,6 +85,17 @@ def test_demo_writes_wav_log_json_png(demo_run):
     log = (out / "events.log").read_text()
     for e in impacts:
         assert f"IMPACT {e['object']} on the head at {e['velocity_mps']:.2f} m/s" in log
+        assert np.linalg.norm(e["point_m"]) == pytest.approx(room.HEAD_RADIUS, abs=0.005)
+
+
+def test_a_helmet_of_four_actuators_gets_one_channel_each(tmp_path):
+    """The same room through scenes/helmet_4.yaml: each contact point picks its actuators."""
+    from hapticfx.actuators.files import read_wav
+
+    summary = earthquake.run(tmp_path, duration=4.0, quiet=True, scene=ROOT / "scenes" / "helmet_4.yaml")
+    rate, wav = read_wav(tmp_path / "earthquake.wav")
+    assert wav.shape == (4, int(4.0 * rate)) and summary["impacts"], summary["notes"]
+    assert np.abs(wav).max(axis=1)[0] > 0  # the crown's channel: every impact in this room lands near the top
 
 
 def test_demo_bad_record_is_one_line_error(tmp_path):

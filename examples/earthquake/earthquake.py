@@ -13,7 +13,8 @@ kinetic-energy baseline). Writes to ``--out``:
 - ``earthquake.wav``  the helmet actuator's output over the whole shaking (mixed, limited)
 - ``events.log``      what happened, one line per event, and what did not
 - ``events.json``     the same, machine-readable
-- ``earthquake.png``  timeline: ground acceleration, impacts (object, velocity), actuator output
+- ``earthquake.png``  timeline: ground acceleration, impacts (object, velocity), actuator output, and a map
+                      of the head showing where each impact landed
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from haptics import mix, output_limits  # noqa: E402
 from room import simulate  # noqa: E402
-from timeline import plot_timeline  # noqa: E402
+from timeline import plot_timeline, where_on_head  # noqa: E402
 
 from hapticfx.actuators.files import write_wav  # noqa: E402
 from hapticfx.atomic import atomic_path  # noqa: E402
@@ -99,7 +100,8 @@ def run(out: Path, *, record: str = "el-centro-1940", record_y: str | None = Non
     submitted = []
 
     def on_contact(contact):
-        submitted.append((contact, engine.impact(contact.object, contact.velocity, at=contact.time_s)))
+        submitted.append((contact, engine.impact(contact.object, contact.velocity, at=contact.time_s,
+                                                  point=contact.point, normal=contact.normal)))
 
     tty = sys.stderr.isatty()
 
@@ -129,7 +131,8 @@ def run(out: Path, *, record: str = "el-centro-1940", record_y: str | None = Non
         p = by_contact.get((contact.object, round(contact.time_s, 6)))
         events.append({
             "time_s": round(contact.time_s, 4), "object": contact.object, "velocity_mps": round(contact.velocity, 4),
-            "position_m": [round(v, 4) for v in contact.position], "queued": queued,
+            "position_m": [round(v, 4) for v in contact.position], "point_m": [round(v, 4) for v in contact.point],
+            "normal": [round(v, 4) for v in contact.normal], "queued": queued,
             "effect": engine.scene.entries[contact.object].effect.name,
             "played_peak": round(p.peak, 4) if p else None,
             "latency_ms": round(p.latency_s * 1e3, 3) if p else None,
@@ -157,7 +160,9 @@ def write_log(path: Path, s: dict) -> None:
     for e in s["impacts"]:
         played = (f"played {e['effect']}, peak {e['played_peak']:.3f} of full scale" if e["played_peak"] is not None
                   else "NOT played (dropped or failed, see engine counts)")
-        events.append((e["time_s"], f"IMPACT {e['object']} on the head at {e['velocity_mps']:.2f} m/s -> {played}"))
+        x, y, z = e["point_m"]
+        events.append((e["time_s"], f"IMPACT {e['object']} on the head at {e['velocity_mps']:.2f} m/s, "
+                                    f"{where_on_head(e['point_m'])} ({x:+.3f}, {y:+.3f}, {z:+.3f}) m -> {played}"))
     for t, text in sorted(events):
         lines.append(f"{t:8.3f} s  {text}")
     for note in s["notes"]:

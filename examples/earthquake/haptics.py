@@ -4,9 +4,10 @@ The simulator submits each contact to :class:`hapticfx.Engine` as it happens
 (object, normal velocity, simulation time). The engine renders through the
 scene's effects and plays on a memory actuator; afterwards every played
 output is placed at its contact time on one timeline at the actuator's rate
-and summed. Overlapping impacts can add up beyond a limit that each one
-respected, so the mix goes through a fresh safety limiter with the helmet
-actuator's effective limits before it is written.
+and summed (one channel per actuator of a scene's ``head``). Overlapping
+impacts can add up beyond a limit that each one respected, so the mix goes
+through a fresh safety limiter per channel with the helmet actuator's effective
+limits before it is written.
 """
 
 from __future__ import annotations
@@ -43,17 +44,20 @@ def output_limits(scene: Scene):
 
 
 def mix(played: list[Playback], *, duration_s: float, rate_hz: float, limits) -> Mix:
-    """Sum each played signal at its contact time (``Playback.at``) and limit the sum."""
+    """Sum each played signal at its contact time (``Playback.at``) and limit the sum, per channel: a scene
+    with a ``head`` of several actuators plays one row per actuator, and gives one channel each."""
     n = int(round(duration_s * rate_hz))
-    timeline = np.zeros(n)
+    channels = max((np.atleast_2d(p.signal.samples).shape[0] for p in played), default=1)
+    timeline = np.zeros((channels, n))
     for p in sorted(played, key=lambda p: p.at):
         if p.signal.rate_hz != rate_hz:
             raise ValueError(f"{p.object}: played at {p.signal.rate_hz} Hz, the timeline is at {rate_hz} Hz")
         start = int(round(p.at * rate_hz))
-        samples = p.signal.samples if p.signal.samples.ndim == 1 else p.signal.samples.sum(axis=0)
+        samples = np.atleast_2d(p.signal.samples)
         end = min(n, start + samples.shape[-1])
         if start < n:
-            timeline[start:end] += samples[: end - start]
-    limiter = SafetyLimiter(limits, rate_hz)
-    limited = limiter.process(timeline)
-    return Mix(Signal(limited, rate_hz), played, limiter.report())
+            timeline[: samples.shape[0], start:end] += samples[:, : end - start]
+    limiters = [SafetyLimiter(limits, rate_hz) for _ in range(channels)]
+    limited = np.stack([lim.process(row) for lim, row in zip(limiters, timeline)])
+    report = max((lim.report() for lim in limiters), key=lambda r: r.total)
+    return Mix(Signal(limited[0] if channels == 1 else limited, rate_hz), played, report)

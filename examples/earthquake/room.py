@@ -10,7 +10,10 @@ strong shaking breaks it loose and it creeps over the edge and falls.
 Head contacts are found every step between ``mj_step1`` (collision detection
 on the pre-step state) and ``mj_step2`` (integration), so the relative normal
 velocity read from the contact Jacobians is the velocity at first contact,
-before the contact impulse acts.
+before the contact impulse acts. Each contact also says where on the head it
+landed, in the head frame of docs/protocol.md: metres from the head's centre,
+x to the right ear, y forward, z up; the person faces +y, so the head frame's
+axes are the room's.
 """
 
 from __future__ import annotations
@@ -43,12 +46,15 @@ ROOM_MASS_KG = 5.0e4      # so heavy that contacts do not move it; its motion is
 
 @dataclass(frozen=True)
 class Contact:
-    """A head contact at its first step: object, time and approach speed along the normal."""
+    """A head contact at its first step: object, time, approach speed along the normal, where in the room
+    (``position``, m) and where on the head (``point`` and the outward ``normal``, head frame)."""
 
     object: str
     time_s: float
     velocity: float
     position: tuple[float, float, float]
+    point: tuple[float, float, float]
+    normal: tuple[float, float, float]
 
 
 @dataclass
@@ -206,7 +212,11 @@ def simulate(
                 rel = (jacp_a - jacp_b) @ data.qvel
                 speed = abs(float(rel @ normal))
                 if speed >= min_velocity:
-                    contact = Contact(oid, t, speed, tuple(float(p) for p in point))
+                    on_head = point - data.geom_xpos[head]  # the room moves, it does not turn: the room's axes
+                    if normal @ on_head < 0:
+                        normal = -normal  # MuJoCo's normal points from the first geom to the second: outwards here
+                    contact = Contact(oid, t, speed, tuple(float(p) for p in point), tuple(float(p) for p in on_head),
+                                      tuple(float(n) for n in normal))
                     contacts.append(contact)
                     if on_contact is not None:
                         on_contact(contact)

@@ -1,4 +1,4 @@
-"""The PNG timeline: ground acceleration, head impacts, actuator output."""
+"""The PNG timeline: ground acceleration, head impacts, actuator output, and where on the head each landed."""
 
 from __future__ import annotations
 
@@ -11,14 +11,53 @@ from hapticfx.atomic import atomic_path
 COLOURS = {"plastic-frame": "tab:blue", "concrete-brick": "tab:red", "wood-beam": "tab:brown", "steel-plate": "tab:gray"}
 
 
+def where_on_head(point) -> str:
+    """A word for a point in the head frame (x right, y forward, z up): crown, front, back, left or right."""
+    x, y, z = point
+    if np.degrees(np.arctan2(z, np.hypot(x, y))) > 60:
+        return "crown"
+    azimuth = np.degrees(np.arctan2(x, y))  # 0 forward, 90 right
+    return "front" if abs(azimuth) <= 45 else "back" if abs(azimuth) >= 135 else "right" if azimuth > 0 else "left"
+
+
+def _head_map(ax_top, ax_side, contacts) -> None:
+    """Where each impact landed: the head seen from above (x right, y forward) and from the right (y, z)."""
+    import matplotlib.pyplot as plt
+
+    radius = max([float(np.linalg.norm(c.point)) for c in contacts], default=0.13)
+    for ax, (i, j), (xl, yl), view in ((ax_top, (0, 1), ("right (m)", "forward (m)"), "from above"),
+                                       (ax_side, (1, 2), ("forward (m)", "up (m)"), "from the right")):
+        ax.add_patch(plt.Circle((0, 0), radius, fill=False, color="0.5"))
+        nose = np.array([0.0, 1.0] if view == "from above" else [1.0, 0.0])  # forward: the face
+        ax.plot(*np.outer([0.95, 1.2], nose * radius).T, color="0.5", lw=2)
+        for k, c in enumerate(sorted(contacts, key=lambda c: c.time_s)):
+            colour = COLOURS.get(c.object, "k")
+            ax.plot(c.point[i], c.point[j], "o", color=colour, ms=4 + 2 * c.velocity, alpha=0.7)
+            ax.annotate(f"{c.time_s:.1f}s", (c.point[i], c.point[j]), fontsize=6, color=colour,
+                        xytext=(4, 4 - 8 * (k % 2)), textcoords="offset points")
+        ax.set_xlim(-1.4 * radius, 1.4 * radius)
+        ax.set_ylim(-1.4 * radius, 1.4 * radius)
+        ax.set_aspect("equal")
+        ax.set_xlabel(xl, fontsize=8)
+        ax.set_ylabel(yl, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.set_title(f"where on the head, {view}", fontsize=9)
+    if not contacts:
+        ax_top.text(0, 0, "no impact", ha="center", va="center", fontsize=8)
+
+
 def plot_timeline(path: Path, *, ground: dict, contacts, output, duration_s: float, title: str) -> Path:
-    """Three panels on one time axis; ``ground`` maps a label to a GroundMotion."""
+    """Four panels on one time axis, and a map of the head with where each impact landed;
+    ``ground`` maps a label to a GroundMotion."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax_g, ax_i, ax_o, ax_z) = plt.subplots(4, 1, figsize=(12, 10), gridspec_kw={"height_ratios": [2, 1.4, 1.5, 1.5]})
+    fig = plt.figure(figsize=(15, 10))
+    grid = fig.add_gridspec(4, 2, width_ratios=[4, 1.2], height_ratios=[2, 1.4, 1.5, 1.5])
+    ax_g, ax_i, ax_o, ax_z = (fig.add_subplot(grid[r, 0]) for r in range(4))
+    _head_map(fig.add_subplot(grid[0:2, 1]), fig.add_subplot(grid[2:4, 1]), contacts)
     ax_i.sharex(ax_g)
     ax_o.sharex(ax_g)
     for label, gm in ground.items():
@@ -43,13 +82,18 @@ def plot_timeline(path: Path, *, ground: dict, contacts, output, duration_s: flo
     ax_i.set_ylim(0, top * 1.9)
     ax_i.set_ylabel("impact velocity (m/s)")
 
-    # Plot a min/max envelope per pixel column rather than millions of samples.
-    x = output.samples
-    bins = 3000
-    per = max(1, x.size // bins)
-    m = x[: per * (x.size // per)].reshape(-1, per)
-    t = (np.arange(m.shape[0]) * per + per / 2) / output.rate_hz
-    ax_o.fill_between(t, m.min(axis=1), m.max(axis=1), color="tab:purple", lw=0)
+    # Plot a min/max envelope per pixel column rather than millions of samples; one colour per channel.
+    channels = np.atleast_2d(output.samples)
+    tints = ["tab:purple"] if len(channels) == 1 else [f"C{k}" for k in range(len(channels))]
+    for k, (x, tint) in enumerate(zip(channels, tints)):
+        bins = 3000
+        per = max(1, x.size // bins)
+        m = x[: per * (x.size // per)].reshape(-1, per)
+        t = (np.arange(m.shape[0]) * per + per / 2) / output.rate_hz
+        ax_o.fill_between(t, m.min(axis=1), m.max(axis=1), color=tint, lw=0, alpha=1 if len(channels) == 1 else 0.6,
+                          label=None if len(channels) == 1 else f"channel {k}")
+    if len(channels) > 1:
+        ax_o.legend(loc="upper right", fontsize=7, ncol=len(channels))
     ax_o.set_ylim(-1.05, 1.05)
     ax_o.set_ylabel("actuator (full scale)")
     ax_o.set_xlim(0, duration_s)
@@ -62,7 +106,8 @@ def plot_timeline(path: Path, *, ground: dict, contacts, output, duration_s: flo
         t0, t1 = 0.0, min(duration_s, 1.0)
     i0, i1 = int(t0 * output.rate_hz), int(t1 * output.rate_hz)
     step = max(1, (i1 - i0) // 20000)
-    ax_z.plot(np.arange(i0, i1, step) / output.rate_hz, x[i0:i1:step], color="tab:purple", lw=0.6)
+    for x, tint in zip(channels, tints):
+        ax_z.plot(np.arange(i0, i1, step) / output.rate_hz, x[i0:i1:step], color=tint, lw=0.6)
     ax_z.set_xlim(t0, t1)
     ax_z.set_ylim(-1.05, 1.05)
     ax_z.set_ylabel("actuator, zoom")
