@@ -84,7 +84,7 @@ def test_gap_share_is_0_for_linear_1_at_the_floor_and_undefined_without_a_gap():
     assert np.allclose(gap_share(floor, lin, floor, rng, 200), 1.0)
     half = gap_share(0.8 * lin, lin, floor, rng, 200)
     assert np.isclose(half[0], 0.5) and half[1] <= 0.5 <= half[2]
-    assert np.isnan(gap_share(0.9 * lin, lin, 1.1 * lin, rng, 200)[0])  # floor worse than linear: no gap
+    assert np.isnan(gap_share(0.9 * lin, lin, 1.1 * lin, rng, 200)).all()  # floor worse than linear: no gap
     up = gap_share(lin + 0.1, lin, lin + 0.2, rng, 200, higher=True)  # ST-SIM-like: the ceiling above
     assert np.allclose(up, 0.5)
 
@@ -195,3 +195,30 @@ def test_the_command_writes_tables_json_and_figures(uneven, tmp_path):
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--dataset", str(uneven.path),
                         "--protocol", "paper"], capture_output=True, text=True)
     assert r.returncode == 2 and "the paper protocol needs" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_protocol_criteria_and_table(uneven):
+    from hapticfx.evaluation.protocol import DATASETS, criteria, table
+
+    good = {"rmse_mean_ratio": (0.5, 0.4, 0.6), "rmse_mean_share": (0.8, 0.7, 0.9), "rmse_share": (0.61, 0.3, 0.9),
+            "lsd_drops_db_ratio": (0.99, 0.9, 1.1), "stsim_ratio": (1.01, 0.9, 1.1), "spqi_ratio": (1.0, 0.9, 1.1)}
+    assert criteria(good) == {"mean": True, "rep": True, "LSD": True, "perceptual": True, "all": True}
+    assert not criteria({**good, "rmse_mean_ratio": (0.5, 0.4, 1.01)})["mean"]  # CI must exclude 1
+    assert not criteria({**good, "rmse_share": (0.59, 0.5, 0.7)})["rep"]
+    assert not criteria({**good, "rmse_share": (float("nan"),) * 3})["rep"]
+    assert not criteria({**good, "spqi_ratio": (0.99, 0.9, 1.1)})["perceptual"]
+    assert not criteria({**good, "lsd_drops_db_ratio": (1.01, 0.9, 1.1)})["all"]
+    refs = [r for r, _ in DATASETS]
+    assert refs.count("builtin:helmet-drops") == 2 and sum(r.startswith("heldout:") for r in refs) >= 3
+    results = run_evaluation(uneven, "max-min", methods_from(["ensemble"]), repeats=5, max_rounds=2,
+                             echo=lambda m: None)
+    assert results["rounds"] == 2 and len(results["folds"]) == 3  # rounds 1 (both objects) and 4 (steel only)
+    md = table(results, summarise(results, boot=100))
+    assert "3 folds (2 rounds)" in md and "| linear |" in md and "baseline" in md
+    assert md.count("| ensemble |") == 1
+
+
+def test_generalisation_takes_no_dataset(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--protocol", "generalisation",
+                        "--dataset", "x", "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    assert r.returncode == 2 and "runs its fixed list of datasets; drop --dataset" in r.stderr

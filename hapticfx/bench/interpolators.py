@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 from typing import Optional
 
@@ -13,30 +14,36 @@ from ..progress import say
 
 
 def interpolators(
-    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="Dataset path, builtin:NAME or heldout:NAME (a held-out set, simulated on first use; "
-                           "see hapticfx/datasets/heldout/README.md)."),
+    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="Dataset path, builtin:NAME or "
+                                "heldout:NAME (a held-out set, simulated on first use; see "
+                                "hapticfx/datasets/heldout/README.md)."),
     reducer: str = typer.Option("max-min", "--reducer", help="Which bank of the dataset."),
     methods: str = typer.Option("linear,ensemble", "--methods", help="Comma-separated rows: interpolator names, or "
                                 "rows named in --config. linear is always included: every ratio is against it."),
     protocol: str = typer.Option("lovo", "--protocol", help="lovo: leave each interior velocity of every object out "
-                                 "in turn (any dataset); looo: leave each object out in turn (no training target from it; "
-                                 "its interior velocities predicted from its neighbours); paper: the paper's split (train 2.80, 3.13, 3.43, 4.85, "
-                                 "5.05; test 3.96, 4.43 m/s)."),
+                                 "in turn (any dataset); looo: leave each object out in turn (no training target "
+                                 "from it; its interior velocities predicted from its neighbours); paper: the "
+                                 "paper's split (train 2.80, 3.13, 3.43, 4.85, 5.05; test 3.96, 4.43 m/s); "
+                                 "generalisation: the same rows on builtin:helmet-drops (lovo), every held-out set "
+                                 "(lovo) and builtin:helmet-drops (looo), one table per dataset with issue 26's "
+                                 "criteria as pass/fail (not with --dataset)."),
     config: Optional[Path] = typer.Option(None, "--config", help="YAML: row -> {interpolator, options, model, "
                                           "training} (e.g. network sizes; see docs/neural.md)."),
     epochs: Optional[int] = typer.Option(None, "--epochs", min=1, help="Maximum training epochs of learned rows "
                                          "(default: their configuration's)."),
     seed: int = typer.Option(0, "--seed", help="Training seed of learned rows and the bootstrap's seed."),
     repeats: int = typer.Option(50, "--repeats", min=5, help="Timed predictions per method (first round)."),
+    max_rounds: Optional[int] = typer.Option(None, "--max-rounds", min=1, help="Run at most this many rounds per "
+                                             "dataset, evenly spread (tables say how many folds ran)."),
     out: Path = typer.Option(Path("bench-interpolators"), "--out", "-o", help="Directory for tables.md, "
-                             "results.json and the PNGs."),
+                             "results.json and the PNGs (one sub-folder per dataset for generalisation)."),
 ):
-    """Score interpolators on held-out recorded velocities: RMSE against the representative and every drop,
-    log-spectral distance and peak error, paired ratios to linear with bootstrap CIs, the floors the
-    recorded drops set, and run time. Works on datasets whose objects have different velocities."""
-    from ..data.dataset import open_dataset
-    from ..evaluation.report import figures, markdown, summarise
-    from ..evaluation.runner import Method, methods_from, run_evaluation
+    """Score interpolators on held-out recorded velocities: RMSE against the representative, every drop and
+    the drops' mean, log-spectral distance, peak error, ST-SIM and SPQI; paired ratios to linear and shares
+    of the gap to the floors the recorded drops set, with bootstrap CIs; run time. Works on datasets whose
+    objects have different velocities."""
+    from ..evaluation import protocol as gen
+    from ..evaluation.runner import Method, methods_from
 
     names = [m.strip() for m in methods.split(",") if m.strip()]
     rows = methods_from(names, config)
@@ -44,22 +51,48 @@ def interpolators(
     rows = [Method(r.row, r.interpolator, r.options,
                    {**r.fit, "training": {**training, **r.fit.get("training", {})}} if training else r.fit)
             for r in rows]
-    from ..evaluation.heldout import resolve
+    if protocol != "generalisation":
+        md = _run(dataset, protocol, reducer, rows, seed=seed, repeats=repeats, max_rounds=max_rounds, out=out)[0]
+        typer.echo(md)
+        return
+    if dataset != "builtin:helmet-drops":
+        raise EffectError("--protocol generalisation runs its fixed list of datasets; drop --dataset")
+    started = time.perf_counter()
+    tables = []
+    for ref, fold_protocol in gen.DATASETS:
+        sub = out / f"{ref.split(':')[-1]}-{fold_protocol}"
+        _, results, summary = _run(ref, fold_protocol, reducer, rows, seed=seed, repeats=repeats,
+                                   max_rounds=max_rounds, out=sub)
+        tables.append(gen.table(results, summary))
+        typer.echo(tables[-1])
+    text = (f"Rows: {', '.join(r.row for r in rows)}; reducer {reducer}; seed {seed}"
+            + (f"; at most {max_rounds} rounds per dataset" if max_rounds else "; every round")
+            + f"; {time.perf_counter() - started:.0f} s.\n\n" + "\n".join(tables))
+    (out / "protocol.md").write_text(text)
+    say(f"wrote {out / 'protocol.md'} and one folder per dataset in {out}")
 
-    ds = open_dataset(resolve(dataset, progress=say))
+
+def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int, max_rounds: int | None,
+         out: Path):
+    """One dataset and fold protocol: run, summarise, write tables.md, results.json and the PNGs into ``out``."""
+    from ..data.dataset import open_dataset
+    from ..evaluation.heldout import resolve
+    from ..evaluation.report import figures, markdown, summarise
+    from ..evaluation.runner import run_evaluation
+
+    ds = open_dataset(resolve(ref, progress=say))
     if reducer not in ds.reducers():
         raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
-    echo = say  # progress on stderr, tables on stdout
-    echo(f"dataset {ds.name} ({reducer}), protocol {protocol}, methods {', '.join(r.row for r in rows)}")
-    results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, echo=echo)
+    say(f"dataset {ds.name} ({reducer}), protocol {protocol}, methods {', '.join(r.row for r in rows)}")
+    results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, max_rounds=max_rounds, echo=say)
     summary = summarise(results, seed=seed)
     out.mkdir(parents=True, exist_ok=True)
     md = markdown(results, summary)
     (out / "tables.md").write_text(md)
     (out / "results.json").write_text(json.dumps({"results": results, "summary": summary}, indent=1) + "\n")
     pngs = figures(results, summary, {o: ds.bank(o, reducer) for o in ds.objects}, out)
-    typer.echo(md)
-    echo(f"wrote {out / 'tables.md'}, {out / 'results.json'}, " + ", ".join(map(str, pngs)))
+    say(f"wrote {out / 'tables.md'}, {out / 'results.json'}, " + ", ".join(map(str, pngs)))
+    return md, results, summary
 
 
 def register(bench: typer.Typer) -> None:

@@ -53,19 +53,20 @@ def gap_share(values: np.ndarray, base: np.ndarray, floor: np.ndarray, rng: np.r
 
     0: no better than linear; 1: at the floor (for a higher-is-better measure the same formula
     with the ceiling). NaN when the floor is not better than linear on the whole set: there is
-    no gap to share (the CI is NaN too when a resample has none).
+    no gap to share. A resample with no gap counts as -inf (conservative: it can only lower the
+    interval's lower bound).
     """
     def share(v, b, f):
         gap = (f - b) if higher else (b - f)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(gap > 1e-12 * np.maximum(np.abs(b), 1e-300), (b - v) / (b - f), np.nan)
+            return np.where(gap > 1e-12 * np.maximum(np.abs(b), 1e-300), (b - v) / (b - f), -np.inf)
 
     point = float(share(values.sum(), base.sum(), floor.sum()))
+    if not np.isfinite(point):
+        return float("nan"), float("nan"), float("nan")
     idx = rng.integers(0, len(values), size=(boot, len(values)))
     samples = share(values[idx].sum(axis=1), base[idx].sum(axis=1), floor[idx].sum(axis=1))
-    if np.isnan(point) or np.isnan(samples).any():
-        return point, float("nan"), float("nan")
-    lo, hi = np.percentile(samples, [2.5, 97.5])
+    lo, hi = np.percentile(samples, [2.5, 97.5], method="nearest")  # no interpolation across -inf
     return point, float(lo), float(hi)
 
 

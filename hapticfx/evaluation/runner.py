@@ -97,10 +97,15 @@ def _scores(pred, truth, drops, rate_hz: float) -> dict:
 
 
 def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, protocol: str = "lovo",
-                   repeats: int = 50, echo: Callable[[str], None] = print) -> dict:
-    """Fit every method on every round and score it on the held-out folds; returns plain data (JSON-able)."""
+                   repeats: int = 50, max_rounds: int | None = None, echo: Callable[[str], None] = print) -> dict:
+    """Fit every method on every round and score it on the held-out folds; returns plain data (JSON-able).
+
+    ``max_rounds``: run only that many rounds, evenly spread over the protocol's (the result says how many).
+    """
     banks = {o: dataset.bank(o, reducer) for o in dataset.objects}
     rounds = rounds_for(protocol, banks)
+    if max_rounds is not None and max_rounds < len(rounds):
+        rounds = [rounds[int(i)] for i in np.unique(np.linspace(0, len(rounds) - 1, max_rounds).round())]
     rate = dataset.rate_hz
     drops_cache: dict = {}
     folds, rows = [], {m.row: {"interpolator": m.interpolator, "fits": [], "folds": [], "error": None} for m in methods}
