@@ -120,7 +120,7 @@ def bench_formats(
     Each effect is rendered for its actuator, exported, read back and rendered by the format's synthesis;
     the table compares the two (docs/formats.md says how each column is measured).
     """
-    from .bench.roundtrip import run
+    from ..bench.formats import run
 
     run(effects or None, charts=charts, repeats=repeats, device=device, as_json=as_json)
 
