@@ -8,3 +8,8 @@ from hapticfx.registry import lazy
 @hookimpl
 def register_actuators(register):
     register("csv-logger", lazy("hapticfx_csvlog.actuator:CsvLogger"))
+
+
+@hookimpl
+def register_formats(register):
+    register("envelope-csv", lazy("hapticfx_csvlog.envelope:EnvelopeCsv"))
