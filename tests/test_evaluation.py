@@ -216,6 +216,10 @@ def test_protocol_criteria_and_table(uneven):
     md = table(results, summarise(results, boot=100))
     assert "3 folds (2 rounds)" in md and "| linear |" in md and "baseline" in md
     assert md.count("| ensemble |") == 1
+    from hapticfx.evaluation.protocol import combined
+
+    both = combined([(results, summarise(results, boot=100))] * 2)
+    assert both.count("| ensemble |") == 2 and "| linear |" not in both
 
 
 def test_generalisation_takes_no_dataset(tmp_path):

@@ -58,16 +58,18 @@ def interpolators(
     if dataset != "builtin:helmet-drops":
         raise EffectError("--protocol generalisation runs its fixed list of datasets; drop --dataset")
     started = time.perf_counter()
-    tables = []
+    tables, runs = [], []
     for ref, fold_protocol in gen.DATASETS:
         sub = out / f"{ref.split(':')[-1]}-{fold_protocol}"
         _, results, summary = _run(ref, fold_protocol, reducer, rows, seed=seed, repeats=repeats,
                                    max_rounds=max_rounds, out=sub)
+        runs.append((results, summary))
         tables.append(gen.table(results, summary))
         typer.echo(tables[-1])
+    typer.echo(gen.combined(runs))
     text = (f"Rows: {', '.join(r.row for r in rows)}; reducer {reducer}; seed {seed}"
             + (f"; at most {max_rounds} rounds per dataset" if max_rounds else "; every round")
-            + f"; {time.perf_counter() - started:.0f} s.\n\n" + "\n".join(tables))
+            + f"; {time.perf_counter() - started:.0f} s.\n\n" + "\n".join(tables) + "\n" + gen.combined(runs))
     (out / "protocol.md").write_text(text)
     say(f"wrote {out / 'protocol.md'} and one folder per dataset in {out}")
 

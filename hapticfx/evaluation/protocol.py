@@ -77,3 +77,29 @@ def table(results: dict, summary: dict) -> str:
                   f"{fl['mean_sampling_rmse'] / lin['rmse_mean']:.3f}, mean of the other drops "
                   f"{fl['mean_of_others_rmse'] / lin['rmse']:.3f}."]
     return "\n".join(lines) + "\n"
+
+
+def combined(runs: list[tuple[dict, dict]]) -> str:
+    """Every dataset in one table (linear left out: it is the 1.000 every ratio is against)."""
+    lines = ["| dataset (folds; floors / linear: drop mean, rep) | method | RMSE vs drop mean / linear | gap share "
+             "(mean) | RMSE vs rep / linear | gap share (rep) | LSD vs drops / linear | ST-SIM / linear "
+             "| SPQI / linear | mean, rep, LSD, perceptual | all |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for results, summary in runs:
+        fl, lin = summary["floors"], summary["methods"]["linear"]
+        floors = (f"{fl['mean_sampling_rmse'] / lin['rmse_mean']:.2f}, {fl['mean_of_others_rmse'] / lin['rmse']:.2f}"
+                  if "mean_sampling_rmse" in fl and "mean_of_others_rmse" in fl else "-")
+        where = f"`{results['dataset']}` {results['protocol']} ({len(results['folds'])}; {floors})"
+        for name, s in summary["methods"].items():
+            if name == "linear":
+                continue
+            if "error" in s:
+                lines.append(f"| {where} | {name} | not evaluated: {s['error']} |" + " |" * 8)
+                continue
+            c = criteria(s)
+            lines.append(f"| {where} | {name} | {_ci(s.get('rmse_mean_ratio'))} | {_pct(s.get('rmse_mean_share'))} "
+                         f"| {_ci(s.get('rmse_ratio'))} | {_pct(s.get('rmse_share'))} "
+                         f"| {_ci(s.get('lsd_drops_db_ratio'))} | {_ci(s.get('stsim_ratio'))} "
+                         f"| {_ci(s.get('spqi_ratio'))} | "
+                         + ", ".join("pass" if c[k] else "fail" for k in ("mean", "rep", "LSD", "perceptual"))
+                         + f" | **{'pass' if c['all'] else 'fail'}** |")
+    return "\n".join(lines) + "\n"
