@@ -126,7 +126,7 @@ def test_a_flood_of_overlapping_impacts_holds_the_limits_in_the_files_time(tmp_p
     with Engine(scene) as engine:
         for k in range(300):
             engine.impact(("concrete-brick", "steel-plate")[k % 2], 5.0, at=50.0 + 0.002 * k)
-        stats = engine.close()
+        stats = engine.close(timeout=300)  # a busy machine renders slowly: wait, never cancel
     assert stats["rendered"] == 300 and "losses" not in stats["outputs"]["actuators.helmet"]
     rate, data = read_wav(wav)
     x = data[0]
@@ -158,7 +158,7 @@ def test_the_file_bound_stops_writing_says_so_once_and_leaves_a_valid_file(tmp_p
         with Engine(scene) as engine:
             for k in range(10):
                 engine.impact("concrete-brick", 4.0, at=k * 1.0)
-            stats = engine.close()
+            stats = engine.close(timeout=300)  # a busy machine renders slowly: wait, never cancel
     header = 74  # RIFF (12), fmt (24), LIST/INFO/ISFT (30) and data (8) chunk headers
     frames = (int(0.05 * 2**20) - header) // 2
     length = engine.played()[0].duration_s * 8000
@@ -181,6 +181,19 @@ def test_play_from_the_cli_puts_its_one_impact_at_0(tmp_path):
     (rate, a), (rate_b, b) = read_wav(played), read_wav(rendered)
     assert rate == rate_b and a.shape == b.shape and np.max(np.abs(a)) > 0.01
     np.testing.assert_allclose(a, b, atol=2 / 8388607)
+
+
+def test_csv_device_stands_in_for_the_effects_actuator(tmp_path):
+    out = tmp_path / "one.csv"
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "play", "effects/falling_brick_kinetic.yaml", "--device",
+                        f"csv:{out}"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    with open(out, newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["t_s", "out"] and float(rows[1][0]) == 0.0
+    t, x = np.array(rows[1:], dtype=float).T
+    rate = 1 / (t[1] - t[0])
+    assert np.max(np.abs(x)) > 0.01 and onsets(x, rate)[0] < 0.001 * rate  # the one impact at 0
 
 
 def test_timeline_moves_an_impact_older_than_what_is_written_and_counts_it(tmp_path):

@@ -117,15 +117,32 @@ class Timeline:
         """Limit and write every frame before ``to`` (no later than the bound)."""
         to = min(to, self.max_frames)
         mixed = min(to, self.written + self._buf.shape[1])
-        while self.written < mixed:  # what impacts were mixed into, through the limiter block by block
-            n = min(BLOCK, mixed - self.written)
-            out = self.limiter.process(self._buf[:, :n], at_s=self.written / self.rate_hz)
-            self.writer.write(out)
-            self._buf = self._buf[:, n:]
-            self.written += n
-        if self.written < to:  # silence after the last impact: the limiter counts it by its clock (at_s)
+        if mixed > self.written:  # what impacts were mixed into
+            n = mixed - self.written
+            chunk, self._buf = self._buf[:, :n], self._buf[:, n:]
+            self.writer.write(self._limited(chunk, self.written))
+            self.written = mixed
+        if self.written < to:  # silence after the last impact
             silence = np.zeros((self._buf.shape[0], int(SILENCE_CHUNK_S * self.rate_hz) or 1))
             while self.written < to:
                 n = min(silence.shape[1], to - self.written)
                 self.writer.write(silence[:, :n])
                 self.written += n
+
+    def _limited(self, x: np.ndarray, first: int) -> np.ndarray:
+        """``x`` (frames ``first`` on) through the limiter: each run of blocks that holds sound, at its time in
+        the file; silent blocks are left out, and the limiter counts them as the silence they are (``at_s``)."""
+        out = np.zeros_like(x)
+        sounding = np.flatnonzero(np.any(x != 0.0, axis=0)) // BLOCK
+        if not sounding.size:
+            return out
+        blocks = np.unique(sounding)
+        for run in np.split(blocks, np.flatnonzero(np.diff(blocks) > 1) + 1):
+            a, b = run[0] * BLOCK, min((run[-1] + 1) * BLOCK, x.shape[1])
+            if x.shape[0] == 1:  # one pass over the run where the RMS limit does not act
+                out[0, a:b] = self.limiter.process_blocks(x[0, a:b], block=BLOCK, at_s=(first + a) / self.rate_hz)[0]
+                continue
+            for k in range(a, b, BLOCK):
+                out[:, k:min(k + BLOCK, b)] = self.limiter.process(x[:, k:min(k + BLOCK, b)],
+                                                                   at_s=(first + k) / self.rate_hz)
+        return out
