@@ -315,3 +315,52 @@ def test_device_files_and_presets(tmp_path):
     assert device_named("console-pcm").frequency_min_hz == 20.0
     with pytest.raises(Exception, match="unknown device 'ps9'"):
         device_named("ps9")
+
+
+# --- Android audio-coupled haptics (Ogg Vorbis, ANDROID_HAPTIC=N) ---------------------------------------------
+
+def test_ogg_checksums_match_what_libsndfile_writes(tmp_path):
+    sf = pytest.importorskip("soundfile")
+    from hapticfx.formats.ogg import _crc, _pages
+
+    path = tmp_path / "plain.ogg"
+    sf.write(path, np.zeros((4800, 2)), 48000, format="OGG", subtype="VORBIS")
+    data = path.read_bytes()
+    pos = 0
+    for page in _pages(data, str(path)):  # every page's stored CRC is the one _crc computes with the field zeroed
+        size = 27 + len(page["lacing"]) + len(page["body"])
+        raw = data[pos:pos + size]
+        assert int.from_bytes(raw[22:26], "little") == _crc(raw[:22] + bytes(4) + raw[26:])
+        pos += size
+
+
+def test_ogg_write_then_read_keeps_the_waveform(tmp_path):
+    pytest.importorskip("soundfile")
+    fmt = format_named("android-ogg")
+    x = impact()
+    path, decoded = write_read(fmt, tmp_path, x)
+    from hapticfx.formats.ogg import _packets, _pages, parse_comments
+
+    assert "ANDROID_HAPTIC=1" in parse_comments(_packets(_pages(path.read_bytes(), "x"), 1, 1)[0][0])
+    y = decoded.signal.samples[: len(x.samples)]
+    assert np.sqrt(np.mean((y - x.samples) ** 2)) < 0.01 * np.max(np.abs(x.samples))
+
+
+@pytest.mark.parametrize("comments, rule", [(["ENCODER=x"], "no ANDROID_HAPTIC comment"),
+                                            (["ANDROID_HAPTIC=3"], "1 or 2 haptic channels"),
+                                            (["ANDROID_HAPTIC=two"], "1 or 2 haptic channels")])
+def test_an_ogg_without_a_valid_haptic_tag_is_refused(tmp_path, comments, rule):
+    sf = pytest.importorskip("soundfile")
+    import io
+
+    from hapticfx.formats.ogg import with_comments
+
+    buffer = io.BytesIO()
+    sf.write(buffer, np.zeros((4800, 2)), 48000, format="OGG", subtype="VORBIS")
+    path = tmp_path / "music.ogg"
+    path.write_bytes(with_comments(buffer.getvalue(), comments))
+    with pytest.raises(HapticFileError, match=rule):
+        format_named("android-ogg").read(path, QUEST, rate_hz=RATE)
+    path.write_bytes(b"OggS not really")
+    with pytest.raises(HapticFileError, match="not an Ogg page|truncated"):
+        format_named("android-ogg").read(path, QUEST, rate_hz=RATE)

@@ -1,4 +1,4 @@
-"""Built-in formats plugin: .haptic, AHAP, Android and HJIF files, the ``haptic-file`` model,
+"""Built-in formats plugin: .haptic, AHAP, Android (arguments and audio-coupled Ogg) and HJIF files, the ``haptic-file`` model,
 ``hapticfx export`` and ``hapticfx bench formats``."""
 
 from ..hookspecs import hookimpl
@@ -11,6 +11,7 @@ def register_formats(register):
     register("ahap", lazy("hapticfx.formats.ahap:AhapFormat"))
     register("android", lazy("hapticfx.formats.android:AndroidFormat"))
     register("hjif", lazy("hapticfx.formats.hjif:HjifFormat"))
+    register("android-ogg", lazy("hapticfx.formats.ogg:AndroidOggFormat"))
 
 
 @hookimpl

@@ -13,7 +13,7 @@ from .show import JSON_HELP, show
 
 VELOCITY_HELP = "Impact velocity in m/s (default: the effect's velocity_mps)."
 OBJECT_HELP = "Object id (default: the effect's object)."
-HAPTIC_FILE_HELP = "or a haptic file (.haptic, .ahap, .android.json, .hjif: docs/formats.md)."
+HAPTIC_FILE_HELP = "or a haptic file (.haptic, .ahap, .android.json, .ogg, .hjif: docs/formats.md)."
 
 
 def _device(value: Optional[str]):

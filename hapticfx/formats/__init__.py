@@ -1,8 +1,8 @@
 """Platform haptic files: export an impact to them and play the files others wrote.
 
 Formats are plugins (``register_formats``); the built-ins are ``haptic`` (Meta ``.haptic``
-1.0), ``ahap`` (Apple), ``android`` (``VibrationEffect`` arguments) and ``hjif`` (MPEG-I
-Haptics). See docs/formats.md for what each holds, the mappings and the round-trip errors.
+1.0), ``ahap`` (Apple), ``android`` (``VibrationEffect`` arguments), ``android-ogg``
+(audio-coupled haptics) and ``hjif`` (MPEG-I Haptics). See docs/formats.md for what each holds, the mappings and the round-trip errors.
 """
 
 from __future__ import annotations

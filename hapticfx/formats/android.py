@@ -11,7 +11,7 @@ arguments as JSON (``NAME.android.json``) for an app to pass on:
   then ``addControlPoint(amplitude 0-1, frequencyHz, durationMillis)`` per breakpoint; the builder
   starts at amplitude 0. Android documents no frequency range for all devices (an app reads the
   device's from ``Vibrator.getFrequencyProfile()``); an offline file cannot, so hapticfx writes
-  the analysed frequency clamped to the export device's range (default Quest, 55-200 Hz).
+  the analysed frequency clamped to the export device's range (default Quest, 55-200 Hz). For the waveform itself, see :mod:`hapticfx.formats.ogg`.
 
 Neither holds a transient: an onset stays in the envelope. Reading prefers ``envelope`` (it
 holds the frequency) and falls back to ``waveform``; the rules checked are those the builders

@@ -45,7 +45,7 @@ def _refuse_existing(path: Path, force: bool) -> None:
 
 def export(
     source: Path = typer.Argument(..., help="Effect file (YAML), or a WAV file (its channels are averaged)."),
-    format: str = typer.Option(..., "--format", "-f", help="haptic, ahap, android or hjif (or a plugin's format)."),
+    format: str = typer.Option(..., "--format", "-f", help="haptic, ahap, android, android-ogg or hjif (or a plugin's format)."),
     out: Path = typer.Option(..., "--out", "-o", help="Output file; with --velocities, a folder (made if missing)."),
     velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help="Impact velocity in m/s (default: the "
                                              "effect's velocity_mps)."),

@@ -18,7 +18,7 @@ from .device import DEFAULT_DEVICE, device_named
 
 
 class HapticFileModel(Model):
-    """Plays a platform haptic file (``.haptic``, ``.ahap``, ``.android.json``, ``.hjif`` or a plugin's format).
+    """Plays a platform haptic file (``.haptic``, ``.ahap``, ``.android.json``, ``.ogg``, ``.hjif`` or a plugin's).
 
     With ``reference_velocity_mps`` the file plays at full strength for an impact at that
     velocity and scales linearly below it (never above full strength); without it every
