@@ -239,3 +239,4 @@ def test_serve_that_cannot_write_its_file_output_exits_2(tmp_path):
     # the file output holds the last 2 s of its timeline before writing them: the write fails at close
     assert "1 output(s) could not be finished" in err and "File too large" in err and "Traceback" not in err
     assert not (tmp_path / "helmet.wav").exists()
+    assert not list(tmp_path.glob(".helmet.wav*"))  # nor its temporary file

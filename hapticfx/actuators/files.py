@@ -11,7 +11,7 @@ from __future__ import annotations
 import io
 import os
 import struct
-import tempfile
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -57,7 +57,8 @@ def _encode(samples: np.ndarray, fmt: str) -> bytes:
 
 
 class _StreamedFile:
-    """A file streamed into a temporary file beside ``path``; :meth:`_finish` moves it into place whole.
+    """A file streamed into :func:`~hapticfx.atomic.atomic_path`'s temporary file beside ``path``;
+    :meth:`_finish` moves it into place whole.
 
     Nothing partial ever appears at ``path``: a failure (disk full, read-only
     directory) raises :class:`DeviceError` and removes the temporary file.
@@ -66,12 +67,15 @@ class _StreamedFile:
     def __init__(self, path: Path):
         self.path = Path(path)
         self.bytes = 0  # written so far, header included
+        self._stack = ExitStack()
         try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
+            self._tmp = self._stack.enter_context(atomic_path(self.path))
+            self._file = open(self._tmp, "wb")
+        except HapticfxError as exc:
+            raise DeviceError(str(exc)) from None
         except OSError as exc:
+            self._drop()
             raise DeviceError(f"{self.path}: cannot write: {exc.strerror}") from None
-        self._tmp = Path(tmp)
-        self._file = os.fdopen(fd, "wb")
 
     def _write(self, data: bytes) -> None:
         try:
@@ -90,8 +94,7 @@ class _StreamedFile:
             self._file.flush()
             os.fsync(self._file.fileno())
             self._file.close()
-            os.chmod(self._tmp, 0o666 & ~_umask())
-            os.replace(self._tmp, self.path)
+            self._stack.close()  # atomic_path moves it into place
         except OSError as exc:
             self.abort()
             raise DeviceError(f"{self.path}: cannot write: {exc.strerror}") from None
@@ -101,9 +104,13 @@ class _StreamedFile:
         """Drop what was written; ``path`` is left as it was."""
         try:
             self._file.close()
-        except OSError:
+        except (OSError, AttributeError):
             pass
-        self._tmp.unlink(missing_ok=True)
+        self._drop()
+
+    def _drop(self) -> None:
+        # leave atomic_path's block with an error: it removes the temporary file
+        self._stack.__exit__(DeviceError, DeviceError(f"{self.path}: not written"), None)
 
 
 class WavWriter(_StreamedFile):
@@ -175,12 +182,6 @@ class CsvWriter(_StreamedFile):
     def close(self) -> Path:
         """Move the file into place atomically."""
         return self._finish()
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def write_wav(path: Path, samples: np.ndarray, rate_hz: float, *, fmt: str = DEFAULT_WAV_FORMAT) -> Path:
