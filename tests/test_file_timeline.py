@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+from pythonosc.osc_bundle_builder import OscBundleBuilder
 from pythonosc.osc_message_builder import OscMessageBuilder
 
 from hapticfx.actuators.files import read_wav
@@ -48,13 +49,24 @@ def write_scene(tmp_path, *, kind="wav", rate=48000, extra="format: float32", li
     return scene, path
 
 
-def impact(obj: str, velocity: float, at: float | None = None) -> bytes:
+def message(obj: str, velocity: float, at: float | None = None):
     b = OscMessageBuilder("/hapticfx/impact")
     b.add_arg(obj)
     b.add_arg(velocity, "f")
     if at is not None:
         b.add_arg(-1, "i")
         b.add_arg(at, "d")
+    return b.build()
+
+
+def impact(obj: str, velocity: float, at: float | None = None) -> bytes:
+    return message(obj, velocity, at).dgram
+
+
+def bundled(obj: str, velocity: float, timetag: float) -> bytes:
+    """One impact in an OSC bundle whose timetag (Unix seconds) is its engine time."""
+    b = OscBundleBuilder(timetag)
+    b.add_content(message(obj, velocity))
     return b.build().dgram
 
 
@@ -71,9 +83,11 @@ def window_rms(x: np.ndarray, n: int) -> float:
     return float(np.sqrt(np.max(c[n:] - c[:-n]) / n)) if x.size >= n else float(np.sqrt(c[-1] / n))
 
 
-def test_serve_writes_a_session_whose_onsets_are_the_sent_engine_times(tmp_path):
-    """Issue 28: impacts sent to `serve` with their engine time give a WAV whose onsets match those times
-    within 1 ms, however they were spaced in arrival (here: sent back to back)."""
+@pytest.mark.parametrize("carrier", ["at", "bundle timetag"])
+def test_serve_writes_a_session_whose_onsets_are_the_sent_engine_times(tmp_path, carrier):
+    """Issue 28: impacts sent to `serve` with their engine time (the `at` argument, or a bundle's timetag)
+    give a WAV whose onsets match those times within 1 ms, however they were spaced in arrival (here: sent
+    back to back)."""
     scene, wav = write_scene(tmp_path)
     proc = subprocess.Popen([sys.executable, "-m", "hapticfx", "serve", str(scene), "--stats-every", "0.2"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -81,9 +95,12 @@ def test_serve_writes_a_session_whose_onsets_are_the_sent_engine_times(tmp_path)
     assert line.startswith("listening on 127.0.0.1:"), line + proc.stderr.read()
     port = int(line.split()[2].rsplit(":", 1)[1])
     sent = [1000.0, 1000.25, 1000.6125, 1001.3, 1002.0417, 1002.5]
+    if carrier != "at":
+        sent = [1.7e9 + t for t in sent]  # a timetag is wall-clock time
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
         for at in sent:
-            client.sendto(impact("concrete-brick", 3.8, at), ("127.0.0.1", port))
+            data = impact("concrete-brick", 3.8, at) if carrier == "at" else bundled("concrete-brick", 3.8, at)
+            client.sendto(data, ("127.0.0.1", port))
     deadline = time.monotonic() + 30
     while '"rendered": 6' not in line and time.monotonic() < deadline:
         line = proc.stdout.readline()
