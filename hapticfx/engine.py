@@ -381,12 +381,7 @@ class Engine:
         length (silent where the impact does not reach), so that file outputs stay aligned. Returns the
         (sites x samples) signal played and whether a site's limiter acted."""
         rate = signal.rate_hz
-        placements = out.spatialiser.place(job.point, job.normal, job.channel)
-        shifts = [int(round(p.delay_s * rate)) for p in placements]
-        n = signal.samples.shape[-1]
-        per_site = np.zeros((len(out.sites), n + max(shifts)))
-        for p, shift in zip(placements, shifts):
-            per_site[p.site, shift:shift + n] = signal.samples if p.gain == 1.0 else p.gain * signal.samples
+        per_site = out.spatialiser.spread(signal.samples, rate, out.spatialiser.place(job.point, job.normal, job.channel))
         limited = False
         for k, site in enumerate(out.sites):
             if site.limiter is not None:

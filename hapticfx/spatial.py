@@ -107,6 +107,16 @@ class Spatialiser:
         return [Placement(first, math.sqrt(1.0 - beta), 0.0), Placement(second, math.sqrt(beta), delay)]
 
 
+    def spread(self, samples: np.ndarray, rate_hz: float, placements: list[Placement]) -> np.ndarray:
+        """One row per site (sites x samples): each placed site gets ``samples`` times its gain after its onset
+        delay; every row has one length (the longest delay's), silent where the impact does not reach."""
+        shifts = [int(round(p.delay_s * rate_hz)) for p in placements]
+        n = samples.shape[-1]
+        out = np.zeros((len(self.layout.sites), n + max(shifts)))
+        for p, shift in zip(placements, shifts):
+            out[p.site, shift:shift + n] = samples if p.gain == 1.0 else p.gain * samples
+        return out
+
     def _along_arc(self, d: np.ndarray, first: int, second: int, a1: float, a2: float):
         """The angles from the two sites to ``d`` projected on the great circle through them; (None, None) when
         the projection falls outside the arc between them (the contact is beyond the nearest site)."""

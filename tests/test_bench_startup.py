@@ -37,3 +37,4 @@ def test_bench_render_times_each_stage_with_the_effects_own_actuator():
     assert r.returncode == 0, r.stderr
     assert "| effects/falling_brick.yaml" in r.stdout and "vibro-transducer 48000 Hz" in r.stdout
     assert "haptuator 48000 Hz" in r.stdout and "| model" in r.stdout and "| limiter" in r.stdout
+    assert "| head: spread" in r.stdout and "| render + head" in r.stdout

@@ -1,7 +1,8 @@
-"""``hapticfx devices`` and ``hapticfx bench output``."""
+"""``hapticfx devices``, ``hapticfx bench output`` and ``hapticfx bench helmet``."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Optional
 
@@ -292,6 +293,39 @@ def _latency(text: str | float) -> str | float:
     return seconds
 
 
+def bench_helmet(
+    scene: Path = typer.Argument(Path("scenes/helmet_4.yaml"), help="A scene with a head of several actuators."),
+    object: str = typer.Option("concrete-brick", help="The object that falls (a key of the scene's effects)."),
+    velocity: float = typer.Option(2.6, min=0.0, max=100.0, help="Its impact velocity (m/s)."),
+    plot: Optional[Path] = typer.Option(None, help="Write the recorded impacts and their levels to this PNG."),
+):
+    """A head of several actuators on a multi-channel PulseAudio null sink: impacts on the first, second and last
+    site and between the first two, recorded back, each channel's level against the layout's (dB)."""
+    from hapticfx.errors import DeviceError
+    from hapticfx.scene import load_scene
+
+    from .bench import helmet
+
+    layout = load_scene(scene).head
+    if layout is None:
+        raise DeviceError(f"{scene}: the scene has no head (several actuators) to measure")
+    points = helmet.default_points(layout)
+    try:
+        cap = helmet.capture(scene, list(points.values()), object=object, velocity=velocity)
+    except (RuntimeError, FileNotFoundError) as exc:
+        raise DeviceError(f"bench helmet needs a running PulseAudio server with pactl and parec: {exc}") from None
+    if len(cap.starts) != len(points):
+        raise DeviceError(f"heard {len(cap.starts)} impact(s) of {len(points)}; engine: {json.dumps(cap.stats)}")
+    typer.echo(f"{object} at {velocity:g} m/s through {scene} on a {cap.expected_db.shape[1]}-channel null sink; "
+               "level per channel relative to the impact's energy over all channels")
+    typer.echo(helmet.table(list(points), cap))
+    if plot is not None:
+        helmet.plot(plot, list(points), cap, title=f"{scene.name}: {object} at {velocity:g} m/s, recorded from a "
+                                                   f"{cap.expected_db.shape[1]}-channel null sink")
+        typer.echo(f"wrote {plot}")
+
+
 def add_commands(app: typer.Typer, bench: typer.Typer) -> None:
     app.command("devices")(devices)
     bench.command("output")(bench_output)
+    bench.command("helmet")(bench_helmet)

@@ -32,8 +32,11 @@ STREAM_READY, STREAM_FAILED, STREAM_TERMINATED = 2, 3, 4
 _CONTEXT_NOAUTOSPAWN = 1
 _FLOAT32LE = 5
 _SEEK_ABSOLUTE = 1
-# ask for data every minreq (not only when the queue runs low); timing is asked for by hand
-_STREAM_FLAGS = 0x4000
+# PA_STREAM_EARLY_REQUESTS: ask for data every minreq (not only when the queue runs low); timing is asked for by
+# hand. PA_STREAM_NO_REMAP_CHANNELS: channel k of the stream is channel k of the sink, by index: an actuator's
+# channel is an output, not a loudspeaker position to up- or downmix (a 4-channel stream on a 4-channel sink
+# whose map differs from libpulse's default was spread over the wrong actuators, one on channel 0 leaked to 1).
+_STREAM_FLAGS = 0x4000 | 0x0010
 _CONNECT_S = 5.0
 
 

@@ -118,7 +118,7 @@ class QueueStream(SharedStream):
         gap, self._last_request = now - self._last_request, now
         if gap > self.queue_s - self.ahead_s:  # less than `ahead` was left queued: nearly dry
             self.late_callbacks.append((now, gap))
-        if frames <= 0:
+        if frames <= 0 or playback.channels != self.mixer.channels:  # widened: this stream is being replaced
             return
         self.mixer.heard(playback.playing_frame())
         at, audio = self.mixer.render(frames)
