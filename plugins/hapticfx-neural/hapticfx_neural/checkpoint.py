@@ -9,8 +9,9 @@ records the same digest, so a table or JSON that does not belong to the weights 
 refused. Nothing is pickled. Every file is written to a temporary file in the same
 directory and moved into place.
 
-Version 2: the network outputs a residual over the linear blend of the neighbours
-(version 1 networks predicted the profile itself and are refused).
+Version 3: the network takes the neighbours' drop centres and outputs a correction of their
+blend (:mod:`.samples`). Version 2 networks (a residual over the representatives' blend,
+trained on representatives only) and version 1 networks (the profile itself) are refused.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from hapticfx.atomic import atomic_path, user_path
 from hapticfx.data.dataset import read_versioned_json
 
 FORMAT = "hapticfx-neural-checkpoint"
-VERSION = 2
+VERSION = 3
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 
 
@@ -84,9 +85,9 @@ def read_meta(path: Path) -> dict:
     try:
         meta = read_versioned_json(meta_file, format=FORMAT, version=VERSION, error=CheckpointError)
     except CheckpointError as exc:
-        if "format version 1;" in str(exc):
-            raise CheckpointError(f"{exc} (version 1 networks predicted profiles, not residuals over the linear "
-                                  "blend); retrain with `hapticfx train CONFIG.yaml`") from None
+        if "format version 1;" in str(exc) or "format version 2;" in str(exc):
+            raise CheckpointError(f"{exc} (older networks were trained on representatives only, not on the "
+                                  "neighbours' drop centres); retrain with `hapticfx train CONFIG.yaml`") from None
         raise
     check_meta(meta, meta_file)
     return meta

@@ -31,10 +31,11 @@ MODEL_DEFAULTS: dict[str, dict] = {
 }
 TRAINING_DEFAULTS = {
     "epochs": 100, "batch_size": 8, "learning_rate": 1e-4, "beta1": 0.9, "val_fraction": 0.2,
-    "patience": 30, "seed": 0, "threads": 1,
+    "patience": 30, "seed": 0, "threads": 1, "augment": True,
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
-            "model", "training", "out")
+            "gaps", "init", "model", "training", "out")
+MAX_GAP = 16
 
 
 @dataclass
@@ -42,11 +43,13 @@ class TrainConfig:
     """One training run: which interpolator, on which data, with which sizes and schedule."""
 
     interpolator: str
-    dataset: str
+    dataset: str | list[str]
     reducer: str = "max-min"
     objects: list[str] | None = None
     train_velocities: list[float] | None = None
     holdout_velocities: list[float] = field(default_factory=list)
+    gaps: list[int] = field(default_factory=lambda: [1])
+    init: str | None = None
     model: dict = field(default_factory=dict)
     training: dict = field(default_factory=dict)
     out: str | None = None
@@ -67,10 +70,23 @@ class TrainConfig:
                                                          and v >= 0 for v in vals):
                     raise EffectError("expected a list of non-negative velocities in m/s", source=self.source, key=key)
                 setattr(self, key, [float(v) for v in vals])
+        if not (isinstance(self.gaps, list) and self.gaps and all(
+                isinstance(g, int) and not isinstance(g, bool) and 1 <= g <= MAX_GAP for g in self.gaps)):
+            raise EffectError(f"expected a non-empty list of integers in [1, {MAX_GAP}] (recorded velocities between "
+                              "a target and each neighbour)", source=self.source, key="gaps")
+        if self.init is not None and not isinstance(self.init, str):
+            raise EffectError("expected a checkpoint path (string)", source=self.source, key="init")
         if self.objects is not None and not (isinstance(self.objects, list) and all(isinstance(o, str) for o in self.objects)):
             raise EffectError("expected a list of object ids", source=self.source, key="objects")
 
+    @property
+    def datasets(self) -> list[str]:
+        return [self.dataset] if isinstance(self.dataset, str) else list(self.dataset)
+
     def out_dir(self, dataset_name: str) -> Path:
+        """``out``, or ``checkpoints/<interpolator>-<dataset>-<reducer>`` under the current directory.
+
+        Never the plugin's shipped weights unless asked for (`hapticfx train --ship`)."""
         return Path(self.out) if self.out else Path("checkpoints") / f"{self.interpolator}-{dataset_name}-{self.reducer}"
 
     def as_dict(self) -> dict:
@@ -118,6 +134,8 @@ def _check_training(t: dict, source: str) -> None:
         v = t[k]
         if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):
             raise EffectError(f"expected an integer >= {lo}", source=source, key=f"training.{k}")
+    if not isinstance(t["augment"], bool):
+        raise EffectError("expected true or false", source=source, key="training.augment")
     for k, lo, hi in (("learning_rate", 0, 1), ("beta1", 0, 1), ("val_fraction", 0, 0.9)):
         v = t[k]
         if not (isinstance(v, (int, float)) and not isinstance(v, bool) and lo <= v <= hi and (k == "val_fraction" or v > 0)):
@@ -142,7 +160,10 @@ def config_from_mapping(data, *, source: str = "<config>") -> TrainConfig:
     unknown = sorted(set(data) - set(TOP_KEYS))
     if unknown:
         raise EffectError(f"unknown key(s) {', '.join(unknown)}; allowed: {', '.join(TOP_KEYS)}", source=source)
-    for key in ("interpolator", "dataset"):
-        if not isinstance(data.get(key), str):
-            raise EffectError("required (a string)", source=source, key=key)
+    if not isinstance(data.get("interpolator"), str):
+        raise EffectError("required (a string)", source=source, key="interpolator")
+    ds = data.get("dataset")
+    if not (isinstance(ds, str) or (isinstance(ds, list) and ds and all(isinstance(d, str) for d in ds))):
+        raise EffectError("required: a dataset (path or builtin:NAME) or a non-empty list of them", source=source,
+                          key="dataset")
     return TrainConfig(**data, source=source)

@@ -21,7 +21,7 @@ from hapticfx.interpolators.table import TableServed, VelocityTable, neighbours
 from hapticfx.signal import valid_number
 
 from . import checkpoint
-from .samples import stack_triples
+from .samples import Centres, Triples, stack_triples
 
 
 def require_torch(why: str) -> None:
@@ -35,6 +35,10 @@ def require_torch(why: str) -> None:
 
 class NeuralInterpolator(TableServed):
     """Predicts a profile from its two recorded neighbours and the velocity with a trained network.
+
+    The network takes the neighbours' drop centres (the mean of every drop recorded at each)
+    and predicts the centre at the velocity; the profile is the neighbours' blend drawn toward
+    it (:mod:`.samples`). Where a neighbour's drops are unknown its representative stands in.
 
     Options (effect ``interpolator_options``): ``weights`` (checkpoint directory or
     ``.safetensors`` file; default: the plugin's shipped weights for the effect's
@@ -58,6 +62,7 @@ class NeuralInterpolator(TableServed):
         self.net = None
         self.meta: dict | None = None
         self.table: VelocityTable | None = None
+        self.centres = Centres()
 
     # -- learning -------------------------------------------------------------------
     def fit(self, data: TrainingData, **options) -> dict:
@@ -67,22 +72,24 @@ class NeuralInterpolator(TableServed):
         """
         require_torch(f"training {self.arch}")
         from .config import config_from_mapping, load_config
-        from .samples import concat, triples_from_bank
+        from .run import triples_of
         from .training import train_network
 
         cfg = load_config(self.config) if self.config else config_from_mapping(
             {"interpolator": self.arch, "dataset": data.dataset, "reducer": data.reducer})
         cfg.training.update(options.get("training") or {})
         cfg.model.update(options.get("model") or {})
-        targets = {obj: [float(v) for v in (data.targets or {}).get(obj, bank.velocities[1:-1])]
-                   for obj, bank in data.banks.items()}
-        triples = concat([triples_from_bank(data.banks[obj], vs) for obj, vs in targets.items() if vs])
+        triples, targets = triples_of(data, gaps=cfg.gaps)
+        init = options.get("init", cfg.init)
         self.net, self.meta = train_network(
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
-            label=options.get("label"), dataset_meta={"name": data.dataset, "reducer": data.reducer,
-                                                      "objects": list(data.banks), "targets": targets})
+            label=options.get("label"), init=None if init is None else checkpoint.resolve(init),
+            dataset_meta={"name": data.dataset, "reducer": data.reducer, "objects": list(data.banks),
+                          "targets": targets, "gaps": list(cfg.gaps)})
         self.net = self.net.double()  # served in float64, like its table
         self.table = None
+        for obj, bank in data.banks.items():
+            self.centres.add(bank, data.drops.get(obj))
         return {k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")}
 
     def tabulate(self, data: TrainingData) -> VelocityTable:
@@ -91,7 +98,7 @@ class NeuralInterpolator(TableServed):
 
         if self.net is None:
             raise CheckpointError(f"{self.arch}: nothing to tabulate (not trained or loaded)")
-        return network_table(self.net, self.meta, list(data.banks.values()), data.dataset)
+        return network_table(self.net, self.meta, list(data.banks.values()), data.dataset, self.centres)
 
     # -- loading ----------------------------------------------------------------------
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
@@ -107,6 +114,10 @@ class NeuralInterpolator(TableServed):
             if self.net is None:
                 self.load(path, dataset=name, reducer=bank.reducer)
             checkpoint.check_compatible(self.meta, path, arch=self.arch, n_samples=bank.n_samples)
+            if dataset is not None:
+                from hapticfx.data.training import recorded_drops
+
+                self.centres.add(bank, recorded_drops(dataset, bank.object, bank.reducer))
             return
         if self.table is None:
             meta = checkpoint.read_meta(path)
@@ -158,13 +169,17 @@ class NeuralInterpolator(TableServed):
             self.load(self.weights)
         return predict(self.net, self.meta, triples)
 
+    def triples(self, rows, objects) -> "Triples":
+        """Inference triples for ``(lower, upper, velocity, None)`` rows, with the neighbours' drop centres."""
+        return stack_triples(rows, objects, self.centres)
+
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
         lo, hi, v = neighbours(lower, upper, velocity)
         if self.table is not None:
             hit = self.table.lookup(lo, hi, v)
             if hit is not None:
                 return hit
-        return self.predict(stack_triples([(lo, hi, v, None)], ["?"]))[0]
+        return self.predict(self.triples([(lo, hi, v, None)], ["?"]))[0]
 
     def describe(self) -> dict:
         if self.table is not None:

@@ -2,10 +2,10 @@
 
 Every network maps ``x (B, T, 2, S)`` - the lower and upper neighbour profiles
 cut into ``T`` recurrent steps of ``S`` samples - and ``vel (B, 2)`` - the
-velocity features - to a residual ``(B, T, S)`` over the linear blend of the two
-neighbours (:func:`blend_plus_residual`). The velocity enters only the final fully
-connected layer, concatenated to each step's decoder output (paper Sect. 4.2).
-That layer starts at zero, so an untrained network is the linear interpolator.
+velocity features - to a correction ``(B, T, S)`` of the linear blend of the two
+neighbours' centres (:func:`blend_plus_correction`). The velocity enters only the final
+fully connected layer, concatenated to each step's decoder output (paper Sect. 4.2).
+That layer starts at zero, so an untrained network is the blend of the neighbours' centres.
 """
 
 from __future__ import annotations
@@ -137,10 +137,10 @@ class EncoderDecoder(nn.Module):
         return self.fc(torch.cat([h, vel[:, None, :].expand(b, t, 2)], dim=-1))
 
 
-def blend_plus_residual(x: torch.Tensor, vel: torch.Tensor, residual: torch.Tensor) -> torch.Tensor:
-    """The normalised profile ``(B, T, S)``: linear blend of the neighbours in ``x`` plus ``4 w (1 - w) r``."""
+def blend_plus_correction(x: torch.Tensor, vel: torch.Tensor, correction: torch.Tensor) -> torch.Tensor:
+    """The normalised centre ``(B, T, S)``: linear blend of the neighbours in ``x`` plus the correction."""
     w = vel[:, 0].reshape(-1, 1, 1)
-    return (1.0 - w) * x[:, :, 0] + w * x[:, :, 1] + 4.0 * w * (1.0 - w) * residual
+    return (1.0 - w) * x[:, :, 0] + w * x[:, :, 1] + correction
 
 
 def build_network(arch: str, model: dict, *, width: int, steps: int) -> nn.Module:

@@ -1,4 +1,4 @@
-"""Training runs over a dataset: which banks, which targets, which velocities are held out."""
+"""Training runs over datasets: which banks and drops, which targets, which velocities are held out."""
 
 from __future__ import annotations
 
@@ -8,30 +8,31 @@ from hapticfx.data.dataset import open_dataset
 from hapticfx.errors import DatasetError
 
 from .config import TrainConfig
-from .samples import Triples, concat, triples_from_bank
+from .samples import DropTriples, concat, drop_triples, object_pools
 
 
-def reduced_bank(bank, holdout: list[float]):
-    """``bank`` without the held-out velocities (they are then neither targets nor inputs)."""
-    for v in holdout:
-        if bank.index_of(v) is not None:
-            bank = bank.without(v)
-    return bank
+def triples_of(data, *, gaps: list[int], targets: dict[str, list[float]] | None = None,
+               prefix: str = "") -> tuple[DropTriples, dict]:
+    """Triples of every object of ``data`` (:class:`~hapticfx.interfaces.TrainingData`) from all its drops.
 
-
-def dataset_triples(dataset, reducer: str, objects: list[str], *, train: list[float] | None,
-                    holdout: list[float]) -> tuple[Triples, dict]:
-    """Training triples of every object: targets ``train`` (default: every interior velocity) of the reduced bank."""
-    parts, targets = [], {}
-    for obj in objects:
-        bank = reduced_bank(dataset.bank(obj, reducer), holdout)
+    Targets: ``targets[obj]`` (else ``data.targets``, else every interior recorded velocity).
+    """
+    rows, chosen = [], {}
+    for obj, bank in data.banks.items():
         interior = [float(v) for v in bank.velocities[1:-1]]
-        chosen = interior if train is None else [v for v in train if v not in holdout]
-        if not chosen:
-            raise DatasetError(f"no training targets for {obj!r}: interior velocities are {interior}")
-        parts.append(triples_from_bank(bank, chosen))
-        targets[obj] = chosen
-    return concat(parts), targets
+        wanted = (targets or data.targets or {}).get(obj)
+        picked = interior if wanted is None else [float(v) for v in wanted if bank.index_of(v) is not None]
+        if any(bank.index_of(v) in (0, len(bank) - 1) for v in picked):
+            raise DatasetError(f"the lowest and highest recorded velocities of {obj!r} have no neighbour on one "
+                               "side and cannot be targets")
+        if not picked:
+            continue
+        rows.append((prefix + obj, bank.velocities, object_pools(bank, data.drops.get(obj)), picked))
+        chosen[obj] = picked
+    if not rows:
+        raise DatasetError(f"no training targets in dataset {data.dataset!r}: a target needs a recorded velocity "
+                           "on each side")
+    return drop_triples(rows, gaps=gaps), chosen
 
 
 def dataset_ref(dataset) -> str:
@@ -41,20 +42,52 @@ def dataset_ref(dataset) -> str:
     return BUILTIN_PREFIX + dataset.path.name if dataset.path.parent == BUILTIN_DIR else str(dataset.path.resolve())
 
 
+def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
+    """The datasets of ``cfg``, their triples and what the checkpoint records about them."""
+    from hapticfx.data.training import training_data
+
+    base = Path(cfg.source).parent if cfg.source != "<config>" else None
+    datasets = [open_dataset(ref, relative_to=base) for ref in cfg.datasets]
+    parts, targets = [], {}
+    for ds in datasets:
+        objects = cfg.objects or ds.objects
+        holdout = {o: [v for v in cfg.holdout_velocities if ds.bank(o, cfg.reducer).index_of(v) is not None]
+                   for o in objects}
+        data = training_data(ds, cfg.reducer, objects, holdout=holdout)
+        wanted = None if cfg.train_velocities is None else {o: cfg.train_velocities for o in objects}
+        prefix = f"{ds.name}/" if len(datasets) > 1 else ""
+        part, chosen = triples_of(data, gaps=cfg.gaps, targets=wanted, prefix=prefix)
+        parts.append(part)
+        targets.update({prefix + o: v for o, v in chosen.items()})
+    first = datasets[0]
+    meta = {"name": first.name if len(datasets) == 1 else f"{first.name}+{len(datasets) - 1}",
+            "ref": dataset_ref(first) if len(datasets) == 1 else None, "reducer": cfg.reducer,
+            "objects": list(targets), "targets": targets, "holdout": list(cfg.holdout_velocities),
+            "gaps": list(cfg.gaps)}
+    if len(datasets) > 1:
+        meta["datasets"] = [dataset_ref(d) for d in datasets]
+    return datasets, concat(parts), meta
+
+
 def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool = True) -> tuple[dict, Path]:
-    """Train the configured interpolator and write its velocity table; returns its metadata and weights' path."""
+    """Train the configured interpolator (and write its velocity table for a one-dataset run).
+
+    Returns the checkpoint's metadata and the weights' path.
+    """
     from .tables import write_table
     from .training import train_network
 
-    dataset = open_dataset(cfg.dataset, relative_to=Path(cfg.source).parent if cfg.source != "<config>" else None)
-    objects = cfg.objects or dataset.objects
-    data, targets = dataset_triples(dataset, cfg.reducer, objects, train=cfg.train_velocities,
-                                    holdout=cfg.holdout_velocities)
-    out = cfg.out_dir(dataset.name)
-    meta_ds = {"name": dataset.name, "ref": dataset_ref(dataset), "reducer": cfg.reducer, "objects": list(objects),
-               "targets": targets, "holdout": list(cfg.holdout_velocities)}
+    datasets, data, meta_ds = config_triples(cfg)
+    out = cfg.out_dir(meta_ds["name"])
+    init = None
+    if cfg.init is not None:
+        base = Path(cfg.source).parent if cfg.source != "<config>" else Path()
+        from . import checkpoint
+
+        init = checkpoint.resolve(base / cfg.init)
     _, meta = train_network(cfg.interpolator, cfg.model, cfg.training, data, dataset_meta=meta_ds, out=out,
-                            resume=resume, progress=progress, label=f"train {cfg.interpolator}")
+                            resume=resume, progress=progress, label=f"train {cfg.interpolator}", init=init)
     weights = out / "model.safetensors"
-    write_table(weights, dataset)
+    if len(datasets) == 1:
+        write_table(weights, datasets[0])
     return meta, weights

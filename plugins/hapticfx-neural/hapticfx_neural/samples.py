@@ -1,24 +1,29 @@
-"""Training triples and the network's input encoding (numpy only).
+"""Training triples from every recorded drop, and the network's input encoding (numpy only).
 
-A triple is (lower neighbour, upper neighbour, velocity) -> target profile.
+A triple is (lower neighbour, upper neighbour, velocity) -> the profile at that velocity.
+Each recorded velocity is a *pool*: all its drops (reduced like the bank), or the bank's one
+representative where a dataset keeps no raw recordings.
 
-Input encoding, shared by training and inference:
+What the network sees and predicts:
 
-- Profiles are divided by ``scale = max(|lower|, |upper|)`` (the larger peak of the
-  two neighbours, per impact). The network therefore sees shapes in [-1, 1]
-  whatever the object or unit.
-- The network's output is the residual ``r`` of the core's endpoint-consistent form
-  (:mod:`hapticfx.interpolators.residual`): the profile is the linear blend of the
-  neighbours plus ``4 w (1 - w) * scale * r``, so a neighbour comes back exactly at its
-  own velocity and the prediction is continuous there.
-- The ``N``-sample profiles are cut into ``steps`` recurrent steps of ``N / steps``
-  consecutive samples; each step carries the lower and upper neighbour's chunk
-  (two channels, lower first).
-- The velocity enters the final dense layer as two features: its relative
-  position ``w = (v - v_lower) / (v_upper - v_lower)`` in [0, 1] and its absolute
-  value standardised with the training velocities' mean and standard deviation.
-  The residual is therefore affine in velocity within a recorded interval, and a
-  velocity table needs only each interval's two ends.
+- **Inputs**: the *centres* of the two neighbours (the mean of their drops). In training,
+  each epoch draws each neighbour's centre from a random subset of its drops (at least half
+  of them), so the network sees the centres' own sampling noise and never the same input
+  twice; at inference the centre is the mean of every drop.
+- **Target**: the mean of the target velocity's drops. Its RMSE differs from the mean RMSE
+  over every drop by a constant, so this *is* a loss over every drop, computed once.
+- **Normalisation**, per impact: inputs and target divided by ``s = max(|lower|, |upper|)``
+  of the two input centres.
+- **Output**: a correction ``r`` to the blend of the centres, ``centre(w) = (1 - w) Lc + w Uc + s r``.
+  The velocity enters the last dense layer only, as ``w = (v - v_lower) / (v_upper - v_lower)``
+  and the standardised absolute velocity, so ``r`` is affine in ``w`` within an interval.
+- **Served** in the core's endpoint-consistent form (:mod:`hapticfx.interpolators.residual`),
+  drawn from the neighbours' representatives ``L, U`` toward the predicted centre::
+
+      profile = (1 - w) L + w U + 4 w (1 - w) (centre(w) - ((1 - w) L + w U))
+
+  so a recorded velocity returns its representative exactly, and halfway the profile is the
+  network's centre. The table residual is affine in ``w``: two nodes per interval are exact.
 """
 
 from __future__ import annotations
@@ -29,15 +34,18 @@ import numpy as np
 
 from hapticfx.errors import DatasetError
 from hapticfx.interfaces import Profile
-from hapticfx.interpolators.residual import compose, scale as neighbour_scale, weight
+from hapticfx.interpolators.residual import scale as neighbour_scale, weight
 
 
 @dataclass
 class Triples:
-    """Stacked triples: ``lower, upper, target (n, N)``; ``v_lo, v_hi, v (n,)``; ``object`` ids."""
+    """Stacked triples: representatives ``lower, upper`` and centres ``lower_c, upper_c`` ``(n, N)``;
+    ``v_lo, v_hi, v (n,)``; the target centre ``(n, N)`` (or None); object ids."""
 
     lower: np.ndarray
     upper: np.ndarray
+    lower_c: np.ndarray
+    upper_c: np.ndarray
     v_lo: np.ndarray
     v_hi: np.ndarray
     v: np.ndarray
@@ -49,56 +57,178 @@ class Triples:
 
     def subset(self, idx) -> "Triples":
         idx = np.asarray(idx, dtype=int)
-        return Triples(self.lower[idx], self.upper[idx], self.v_lo[idx], self.v_hi[idx], self.v[idx],
-                       None if self.target is None else self.target[idx], [self.objects[i] for i in idx])
+        return Triples(self.lower[idx], self.upper[idx], self.lower_c[idx], self.upper_c[idx], self.v_lo[idx],
+                       self.v_hi[idx], self.v[idx], None if self.target is None else self.target[idx],
+                       [self.objects[i] for i in idx])
 
 
-def triples_from_bank(bank, targets) -> Triples:
-    """Triples for recorded ``targets`` of ``bank``: each target with its recorded neighbours."""
-    rows = []
-    for v in targets:
-        i = bank.index_of(v)
-        if i is None:
-            raise DatasetError(f"{v} m/s is not recorded for {bank.object!r}; recorded: "
-                               f"{', '.join(f'{x:g}' for x in bank.velocities)}")
-        if i == 0 or i == len(bank) - 1:
-            raise DatasetError(f"{v} m/s is the lowest or highest recorded velocity of {bank.object!r}: "
-                               "it has no neighbour on one side and cannot be a target")
-        rows.append((bank[i - 1], bank[i + 1], bank[i]))
-    return stack_triples([(lo, hi, float(t.velocity), t.samples) for lo, hi, t in rows], [bank.object] * len(rows))
+def stack_triples(rows: list[tuple[Profile, Profile, float, np.ndarray | None]], objects: list[str],
+                  centres=None) -> Triples:
+    """Triples for inference from ``(lower, upper, velocity, target)`` rows.
 
-
-def stack_triples(rows: list[tuple[Profile, Profile, float, np.ndarray | None]], objects: list[str]) -> Triples:
+    ``centres(profile) -> centre`` gives a neighbour's drop centre (default: the profile itself).
+    """
+    find = centres or (lambda p: np.asarray(p.samples, np.float64))
     lower = np.stack([np.asarray(r[0].samples, np.float64) for r in rows])
     upper = np.stack([np.asarray(r[1].samples, np.float64) for r in rows])
     target = None if rows[0][3] is None else np.stack([np.asarray(r[3], np.float64) for r in rows])
-    return Triples(lower, upper, np.array([r[0].velocity for r in rows], float),
-                   np.array([r[1].velocity for r in rows], float), np.array([r[2] for r in rows], float),
-                   target, list(objects))
+    return Triples(lower, upper, np.stack([find(r[0]) for r in rows]), np.stack([find(r[1]) for r in rows]),
+                   np.array([r[0].velocity for r in rows], float), np.array([r[1].velocity for r in rows], float),
+                   np.array([r[2] for r in rows], float), target, list(objects))
 
 
-def concat(parts: list[Triples]) -> Triples:
-    tgt = None if any(p.target is None for p in parts) else np.concatenate([p.target for p in parts])
-    return Triples(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("lower", "upper", "v_lo", "v_hi", "v")),
-                   tgt, sum((p.objects for p in parts), []))
+@dataclass
+class DropTriples:
+    """Triples over pools of drops: ``pools[k]`` is ``(D_k, N)``; ``lo, hi, tgt`` index pools per triple."""
+
+    pools: list[np.ndarray]
+    lo: np.ndarray
+    hi: np.ndarray
+    tgt: np.ndarray
+    v_lo: np.ndarray
+    v_hi: np.ndarray
+    v: np.ndarray
+    objects: list[str]
+
+    def __len__(self) -> int:
+        return int(self.v.shape[0])
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.pools[0].shape[-1])
+
+    def subset(self, idx) -> "DropTriples":
+        idx = np.asarray(idx, dtype=int)
+        return DropTriples(self.pools, self.lo[idx], self.hi[idx], self.tgt[idx], self.v_lo[idx], self.v_hi[idx],
+                           self.v[idx], [self.objects[i] for i in idx])
+
+    def centres(self, rng: np.random.Generator | None = None) -> Triples:
+        """Triples whose inputs are the pools' centres; with ``rng``, each drawn from a random half or more."""
+        means = [p.mean(axis=0) for p in self.pools]
+
+        def centre(k: int) -> np.ndarray:
+            pool = self.pools[k]
+            if rng is None or len(pool) < 2:
+                return means[k]
+            size = int(rng.integers((len(pool) + 1) // 2, len(pool) + 1))
+            return pool[rng.choice(len(pool), size, replace=False)].mean(axis=0)
+
+        lc = np.stack([centre(k) for k in self.lo])
+        uc = np.stack([centre(k) for k in self.hi])
+        return Triples(lc, uc, lc, uc, self.v_lo, self.v_hi, self.v, np.stack([means[k] for k in self.tgt]),
+                       self.objects)
+
+
+def drop_triples(pools_of: list[tuple[str, np.ndarray, list[np.ndarray], list[float]]], *,
+                 gaps: list[int]) -> DropTriples:
+    """Triples of every object: ``(object, velocities (V,), pools, target velocities)``.
+
+    Target velocity ``i`` takes neighbours ``i - a`` and ``i + b`` for every ``a, b`` in ``gaps``
+    (1: the adjacent recorded velocities; on a dense grid larger gaps add wider intervals and
+    off-centre positions ``w``).
+    """
+    pools, lo, hi, tgt, vl, vh, vv, objs = [], [], [], [], [], [], [], []
+    for obj, velocities, obj_pools, targets in pools_of:
+        base = len(pools)
+        pools.extend(np.asarray(p, np.float64) for p in obj_pools)
+        for t in targets:
+            i = int(np.flatnonzero(np.isclose(velocities, t, rtol=0, atol=1e-9))[0])
+            for a in gaps:
+                for b in gaps:
+                    if i - a < 0 or i + b >= len(velocities):
+                        continue
+                    lo.append(base + i - a)
+                    hi.append(base + i + b)
+                    tgt.append(base + i)
+                    vl.append(velocities[i - a])
+                    vh.append(velocities[i + b])
+                    vv.append(velocities[i])
+                    objs.append(obj)
+    if not tgt:
+        raise DatasetError("no training triples: a target needs a recorded velocity on each side")
+    lengths = {p.shape[-1] for p in pools}
+    if len(lengths) != 1:
+        raise DatasetError(f"profiles of different lengths ({sorted(lengths)}) cannot train one network")
+    as_int = lambda x: np.array(x, dtype=int)  # noqa: E731
+    return DropTriples(pools, as_int(lo), as_int(hi), as_int(tgt), np.array(vl, float), np.array(vh, float),
+                       np.array(vv, float), objs)
+
+
+def concat(parts: list[DropTriples]) -> DropTriples:
+    pools, offset, idx = [], 0, {"lo": [], "hi": [], "tgt": []}
+    for p in parts:
+        for k in idx:
+            idx[k].append(getattr(p, k) + offset)
+        pools.extend(p.pools)
+        offset += len(p.pools)
+    return DropTriples(pools, *(np.concatenate(idx[k]) for k in ("lo", "hi", "tgt")),
+                       *(np.concatenate([getattr(p, k) for p in parts]) for k in ("v_lo", "v_hi", "v")),
+                       sum((p.objects for p in parts), []))
 
 
 def encode(t: Triples, *, steps: int, v_mean: float, v_std: float):
     """Network inputs ``x (n, steps, 2, N/steps)``, ``vel (n, 2)`` and the normalised target ``y`` (or None)."""
-    n, length = t.lower.shape
+    n, length = t.lower_c.shape
     if length % steps:
         raise DatasetError(f"profiles of {length} samples cannot be cut into {steps} equal steps; "
                            "choose model.steps dividing the profile length")
-    scale = neighbour_scale(t.lower, t.upper)
+    s = neighbour_scale(t.lower_c, t.upper_c)
     width = length // steps
-    pair = np.stack([t.lower, t.upper], axis=1) / scale[:, None, None]           # (n, 2, N)
+    pair = np.stack([t.lower_c, t.upper_c], axis=1) / s[:, None, None]           # (n, 2, N)
     x = pair.reshape(n, 2, steps, width).transpose(0, 2, 1, 3)                    # (n, T, 2, S)
     vel = np.stack([weight(t.v_lo, t.v_hi, t.v), (t.v - v_mean) / v_std], axis=1)
-    y = None if t.target is None else (t.target / scale[:, None]).reshape(n, steps, width)
+    y = None if t.target is None else (t.target / s[:, None]).reshape(n, steps, width)
     return x.astype(np.float32), vel.astype(np.float32), None if y is None else y.astype(np.float32)
 
 
-def decode(t: Triples, residual: np.ndarray) -> np.ndarray:
-    """Profiles ``(n, N)`` in the bank's units (float64) from the network's residual ``(n, T, S)``."""
-    r = np.asarray(residual, dtype=np.float64).reshape(len(t), -1)
-    return compose(t.lower, t.upper, weight(t.v_lo, t.v_hi, t.v), r)
+def centre_of(t: Triples, correction: np.ndarray) -> np.ndarray:
+    """The predicted centre ``(n, N)`` in the bank's units from the network's correction ``(n, T, S)``."""
+    r = np.asarray(correction, dtype=np.float64).reshape(len(t), -1)
+    w = weight(t.v_lo, t.v_hi, t.v)[:, None]
+    return (1.0 - w) * t.lower_c + w * t.upper_c + neighbour_scale(t.lower_c, t.upper_c)[:, None] * r
+
+
+def table_residual(t: Triples, correction: np.ndarray) -> np.ndarray:
+    """The core's residual ``(n, N)`` (:mod:`hapticfx.interpolators.residual`) that serves the prediction."""
+    w = weight(t.v_lo, t.v_hi, t.v)[:, None]
+    blend = (1.0 - w) * t.lower + w * t.upper
+    return (centre_of(t, correction) - blend) / neighbour_scale(t.lower, t.upper)[:, None]
+
+
+def decode(t: Triples, correction: np.ndarray) -> np.ndarray:
+    """Profiles ``(n, N)`` (float64, bank units): the representatives' blend drawn toward the predicted centre."""
+    from hapticfx.interpolators.residual import compose
+
+    return compose(t.lower, t.upper, weight(t.v_lo, t.v_hi, t.v), table_residual(t, correction))
+
+
+def object_pools(bank, drops) -> list[np.ndarray]:
+    """One pool per recorded velocity of ``bank``: its drops ``(D, N)`` from ``drops = (velocities, (V, D, N))``,
+    or the representative alone where ``drops`` is None (a dataset without raw recordings)."""
+    if drops is None:
+        return [np.asarray(p, np.float64)[None] for p in bank.profiles]
+    velocities, reduced = drops
+    idx = [np.flatnonzero(np.isclose(velocities, v, rtol=0, atol=1e-9)) for v in bank.velocities]
+    if any(i.size != 1 for i in idx):
+        raise DatasetError(f"object {bank.object!r}: the recorded drops and the bank list different velocities")
+    return [np.asarray(reduced[int(i[0])], np.float64) for i in idx]
+
+
+class Centres:
+    """A neighbour's drop centre found from its representative (velocity and samples), for inference."""
+
+    def __init__(self):
+        self._by_key: dict[tuple, np.ndarray] = {}
+
+    @staticmethod
+    def _key(velocity: float, samples: np.ndarray) -> tuple:
+        return float(velocity), hash(np.ascontiguousarray(samples, np.float64).tobytes())
+
+    def add(self, bank, drops) -> None:
+        for v, profile, pool in zip(bank.velocities, bank.profiles, object_pools(bank, drops)):
+            self._by_key[self._key(v, profile)] = pool.mean(axis=0)
+
+    def __call__(self, profile: Profile) -> np.ndarray:
+        """The centre recorded for ``profile``; the profile itself when its drops are unknown."""
+        found = self._by_key.get(self._key(profile.velocity, profile.samples))
+        return np.asarray(profile.samples, np.float64) if found is None else found

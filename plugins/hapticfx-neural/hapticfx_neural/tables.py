@@ -8,15 +8,18 @@ from typing import Callable
 
 from hapticfx.data.dataset import Dataset
 from hapticfx.errors import CheckpointError
+from hapticfx.interfaces import Profile
 from hapticfx.interpolators.table import DEFAULT_TOLERANCE, VelocityTable, build_table
 
 from . import checkpoint
-from .samples import Triples
+from .samples import Centres, stack_triples
 
 
-def network_table(net, meta: dict, banks: list, dataset: str, *, tolerance: float = DEFAULT_TOLERANCE,
-                  progress: Callable[[str], None] | None = None) -> VelocityTable:
-    """The velocity table of ``net`` for ``banks`` (one per object), computed in float64."""
+def network_table(net, meta: dict, banks: list, dataset: str, centres: Centres, *,
+                  tolerance: float = DEFAULT_TOLERANCE, progress: Callable[[str], None] | None = None) -> VelocityTable:
+    """The velocity table of ``net`` for ``banks`` (one per object), computed in float64.
+
+    ``centres`` finds each neighbour's drop centre, the network's input."""
     from .training import predict_residual
 
     net64 = copy.deepcopy(net).double().eval()
@@ -26,7 +29,8 @@ def network_table(net, meta: dict, banks: list, dataset: str, *, tolerance: floa
                               f"{', '.join(wrong)} of dataset {dataset!r} have other lengths")
 
     def residual(lower, upper, v_lo, v_hi, v, obj):
-        return predict_residual(net64, meta, Triples(lower, upper, v_lo, v_hi, v, None, [obj] * len(v)))
+        rows = [(Profile(a, lo), Profile(b, hi), x, None) for lo, hi, a, b, x in zip(lower, upper, v_lo, v_hi, v)]
+        return predict_residual(net64, meta, stack_triples(rows, [obj] * len(v), centres))
 
     return build_table(banks, residual, interpolator=meta["interpolator"],
                        source={"weights_sha256": meta.get("weights_sha256")}, dataset=dataset,
@@ -37,7 +41,13 @@ def write_table(weights: Path, dataset: Dataset, *, progress: Callable[[str], No
     """Build and write the table of the checkpoint ``weights`` for ``dataset``; returns its path."""
     from .training import load_network
 
+    from hapticfx.data.training import recorded_drops
+
     meta = checkpoint.read_meta(weights)
     net, meta = load_network(weights, arch=meta["interpolator"], dataset=dataset.name)
-    banks = [dataset.bank(obj, meta["dataset"]["reducer"]) for obj in dataset.objects]
-    return network_table(net, meta, banks, dataset.name, progress=progress).save(checkpoint.table_path(weights))
+    reducer = meta["dataset"]["reducer"]
+    banks = [dataset.bank(obj, reducer) for obj in dataset.objects]
+    centres = Centres()
+    for bank in banks:
+        centres.add(bank, recorded_drops(dataset, bank.object, reducer))
+    return network_table(net, meta, banks, dataset.name, centres, progress=progress).save(checkpoint.table_path(weights))

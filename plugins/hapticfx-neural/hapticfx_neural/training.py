@@ -1,4 +1,12 @@
-"""Training loop: RMSE loss, Adam, early stopping on a validation split, checkpoints, resume."""
+"""Training loop: RMSE loss against drop means, Adam, early stopping on a validation split, checkpoints, resume.
+
+Every epoch draws the neighbours' input centres afresh from random subsets of their drops
+(:meth:`~.samples.DropTriples.centres`), from a generator seeded by (seed, epoch) so that a
+resumed run draws what an uninterrupted one would. The validation split holds out whole
+target velocities (every triple of a held-out (object, velocity) pool), scored with the
+full centres as inputs. Fine-tuning (``init``) starts from another checkpoint's weights and
+keeps its velocity normalisation.
+"""
 
 from __future__ import annotations
 
@@ -15,8 +23,8 @@ from hapticfx.errors import CheckpointError, DatasetError
 from hapticfx.progress import Progress
 
 from . import checkpoint
-from .networks import blend_plus_residual, build_network
-from .samples import Triples, decode, encode
+from .networks import blend_plus_correction, build_network
+from .samples import DropTriples, Triples, decode, encode, table_residual
 
 
 def make_network(arch: str, model: dict, n_samples: int) -> torch.nn.Module:
@@ -34,10 +42,14 @@ def _rmse(pred, y):
     return torch.sqrt(torch.mean((pred - y) ** 2) + 1e-12)
 
 
-def _split(n: int, fraction: float, gen: torch.Generator) -> tuple[np.ndarray, np.ndarray]:
+def _split(data: DropTriples, fraction: float, gen: torch.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Train and validation triples; the validation split holds out whole target pools."""
+    pools = np.unique(data.tgt)
+    n = len(pools)
     n_val = 0 if fraction <= 0 or n < 5 else max(1, int(round(fraction * n)))
-    perm = torch.randperm(n, generator=gen).numpy()
-    return np.sort(perm[n_val:]), np.sort(perm[:n_val])
+    held = pools[torch.randperm(n, generator=gen).numpy()[:n_val]]
+    val = np.isin(data.tgt, held)
+    return np.flatnonzero(~val), np.flatnonzero(val)
 
 
 def _optimizer_tensors(opt: torch.optim.Adam) -> tuple[dict, dict]:
@@ -58,45 +70,59 @@ def _load_optimizer(opt: torch.optim.Adam, tensors: dict, groups: list) -> None:
     opt.load_state_dict({"state": state, "param_groups": groups})
 
 
-def train_network(arch: str, model: dict, training: dict, data: Triples, *, dataset_meta: dict,
+def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, dataset_meta: dict,
                   out: Path | None = None, resume: bool = False, progress: bool = True,
-                  label: str | None = None) -> tuple[torch.nn.Module, dict]:
+                  label: str | None = None, init: Path | None = None) -> tuple[torch.nn.Module, dict]:
     """Train interpolator ``arch`` on ``data``; returns the best network (by validation RMSE) and its metadata.
 
     With ``out``, writes ``model.safetensors/.json`` (best) and ``resume.*`` (last
-    epoch) there; ``resume=True`` continues from ``out/resume.*``.
+    epoch) there; ``resume=True`` continues from ``out/resume.*``. ``init``: a checkpoint
+    to fine-tune (same interpolator and sizes).
     """
-    if data.target is None or len(data) == 0:
+    if len(data) == 0:
         raise DatasetError("no training triples: a target needs a recorded velocity on each side")
     torch.set_num_threads(int(training["threads"]))
     seed = int(training["seed"])
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed)
-    n_samples = data.lower.shape[1]
+    n_samples = data.n_samples
     net = make_network(arch, model, n_samples)
-    opt = torch.optim.Adam(net.parameters(), lr=training["learning_rate"], betas=(training["beta1"], 0.999))
-    tr_idx, va_idx = _split(len(data), training["val_fraction"], gen)
+    tr_idx, va_idx = _split(data, training["val_fraction"], gen)
     v_mean = float(np.mean(data.v[tr_idx]))
     v_std = float(np.std(data.v[tr_idx])) or 1.0
+    started_from = None
+    if init is not None:
+        net, init_meta = load_network(init, arch=arch, n_samples=n_samples)
+        if init_meta["model"] != model:
+            raise CheckpointError(f"{init}: cannot fine-tune: its model sizes {init_meta['model']} differ from {model}")
+        v_mean, v_std = init_meta["normalisation"]["velocity_mean"], init_meta["normalisation"]["velocity_std"]
+        started_from = {"weights": str(init), "weights_sha256": init_meta["weights_sha256"],
+                        "dataset": init_meta["dataset"].get("name")}
+    opt = torch.optim.Adam(net.parameters(), lr=training["learning_rate"], betas=(training["beta1"], 0.999))
+
     def enc(t: Triples):
         x, vel, y = encode(t, steps=model["steps"], v_mean=v_mean, v_std=v_std)
         return torch.from_numpy(x), torch.from_numpy(vel), torch.from_numpy(y)
 
     def loss_of(x, vel, y):
-        return _rmse(blend_plus_residual(x, vel, net(x, vel)), y)
+        return _rmse(blend_plus_correction(x, vel, net(x, vel)), y)
 
-    xt, vt, yt = enc(data.subset(tr_idx))
-    xv, vv, yv = enc(data.subset(va_idx)) if len(va_idx) else (None, None, None)
+    train_set = data.subset(tr_idx)
+    xv, vv, yv = enc(data.subset(va_idx).centres()) if len(va_idx) else (None, None, None)
     meta = {
         "interpolator": arch, "model": copy.deepcopy(model), "n_samples": int(n_samples), "steps": int(model["steps"]),
-        "output": "residual over the linear blend (hapticfx.interpolators.residual)",
-        "normalisation": {"profile": "divided by max(|lower|, |upper|) per impact",
+        "output": "correction of the blend of the neighbours' drop centres (hapticfx_neural.samples)",
+        "normalisation": {"profile": "divided by max(|lower centre|, |upper centre|) per impact",
                           "velocity_features": ["(v - v_lower) / (v_upper - v_lower)", "(v - velocity_mean) / velocity_std"],
                           "velocity_mean": v_mean, "velocity_std": v_std},
-        "dataset": dataset_meta, "parameters": n_parameters(net),
+        "dataset": dataset_meta, "parameters": n_parameters(net), "init": started_from,
         "training": {**copy.deepcopy(training), "n_train": int(len(tr_idx)), "n_val": int(len(va_idx))},
     }
-    state = {"epoch": 0, "best": math.inf, "best_epoch": 0, "bad": 0, "elapsed_s": 0.0, "history": []}
+    net.eval()
+    with torch.no_grad():
+        start_val = float(loss_of(xv, vv, yv)) if xv is not None else None
+    state = {"epoch": 0, "best": math.inf, "best_epoch": 0, "bad": 0, "elapsed_s": 0.0, "history": [],
+             "start_val": start_val}
     best_state = copy.deepcopy(net.state_dict())
     if resume:
         state, best_state = _resume(out, net, opt, gen, meta)
@@ -108,6 +134,8 @@ def train_network(arch: str, model: dict, training: dict, data: Triples, *, data
     t0 = time.perf_counter() - state["elapsed_s"]
     while state["epoch"] < training["epochs"] and state["bad"] < training["patience"]:
         net.train()
+        draw = np.random.default_rng([seed, state["epoch"]]) if training["augment"] else None
+        xt, vt, yt = enc(train_set.centres(draw))
         perm = torch.randperm(len(tr_idx), generator=gen)
         total = 0.0
         for start in range(0, len(perm), bs):
@@ -160,7 +188,8 @@ def _saved(save, out: Path, state: dict, created: bool) -> None:
 
 def _summary(state: dict, t0: float) -> dict:
     return {"epochs_run": state["epoch"], "best_epoch": state["best_epoch"], "best_val_rmse_normalised": state["best"],
-            "train_time_s": time.perf_counter() - t0, "history": state["history"]}
+            "start_val_rmse_normalised": state["start_val"], "train_time_s": time.perf_counter() - t0,
+            "history": state["history"]}
 
 
 def _save_best(out: Path, best_state: dict, meta: dict, state: dict, t0: float) -> None:
@@ -195,7 +224,7 @@ def _resume(out: Path | None, net, opt, gen, meta: dict) -> tuple[dict, dict]:
     _load_optimizer(opt, tensors, old["resume"]["param_groups"])
     torch.set_rng_state(tensors["rng.torch"])
     gen.set_state(tensors["rng.shuffle"])
-    state = {k: old["resume"][k] for k in ("epoch", "best", "best_epoch", "bad", "elapsed_s", "history")}
+    state = {k: old["resume"][k] for k in ("epoch", "best", "best_epoch", "bad", "elapsed_s", "history", "start_val")}
     best_path = Path(out) / "model.safetensors"
     best = checkpoint.load_tensors(best_path) if best_path.is_file() else copy.deepcopy(net.state_dict())
     return state, best
@@ -218,8 +247,8 @@ def load_network(path: Path, *, arch: str, n_samples: int | None = None, dataset
     return net, meta
 
 
-def predict_residual(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
-    """The network's residual ``(n, N)`` for ``data``, computed in the network's own precision."""
+def predict_correction(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
+    """The network's correction ``(n, N)`` for ``data``, computed in the network's own precision."""
     norm = meta["normalisation"]
     x, vel, _ = encode(data, steps=int(meta["steps"]), v_mean=norm["velocity_mean"], v_std=norm["velocity_std"])
     dtype = next(net.parameters()).dtype
@@ -234,4 +263,9 @@ def predict_residual(net: torch.nn.Module, meta: dict, data: Triples, *, batch: 
 
 def predict(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
     """Profiles ``(n, N)`` (float64, bank units) predicted for ``data``."""
-    return decode(data, predict_residual(net, meta, data, batch=batch))
+    return decode(data, predict_correction(net, meta, data, batch=batch))
+
+
+def predict_residual(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
+    """The core's table residual ``(n, N)`` of the prediction for ``data``."""
+    return table_residual(data, predict_correction(net, meta, data, batch=batch))

@@ -36,7 +36,6 @@ def bench_table(
 
     from .. import checkpoint
     from ..interpolator import require_torch
-    from ..samples import stack_triples
 
     require_torch("`hapticfx bench table`")
     ds = open_dataset(dataset)
@@ -58,7 +57,7 @@ def bench_table(
         vs = rng.uniform(bank.velocities[0], bank.velocities[-1], int(np.sum(objs == obj)))
         vs = vs[[bank.index_of(float(v)) is None for v in vs]]
         rows = [(*bank.neighbours(float(v)), float(v), None) for v in vs]
-        want = direct.predict(stack_triples(rows, [obj] * len(rows)))
+        want = direct.predict(direct.triples(rows, [obj] * len(rows)))
         for (lo, hi, v, _), d in zip(rows, want):
             worst = max(worst, float(np.max(np.abs(tabled.interpolate(lo, hi, v) - d)) / np.max(np.abs(d))))
         typer.echo(f"{obj}: {len(rows)} velocities compared", err=True)

@@ -78,10 +78,8 @@ def threads(
     """Torch threads against inference latency and training time on this machine (ratios to the first count)."""
     import torch
 
-    from hapticfx.data.dataset import open_dataset
-
     from ..config import load_config
-    from ..run import dataset_triples
+    from ..run import config_triples
 
     try:
         ns = [int(x) for x in counts.split(",") if x.strip()]
@@ -90,9 +88,8 @@ def threads(
     if not ns or min(ns) < 1:
         raise typer.BadParameter("thread counts must be >= 1", param_hint="--counts")
     cfg = load_config(config)
-    dataset = open_dataset(cfg.dataset, relative_to=config.parent)
-    data, _ = dataset_triples(dataset, cfg.reducer, cfg.objects or dataset.objects, train=cfg.train_velocities,
-                              holdout=cfg.holdout_velocities)
+    datasets, data, _ = config_triples(cfg)
+    dataset = datasets[0]
     typer.echo(f"torch {torch.__version__}, {torch.get_num_threads()} threads by default on this machine; "
                f"comparing {ns} with {busy} other busy process(es)")
     with busy_processes(busy):
@@ -115,7 +112,7 @@ def _measure(cfg, dataset, data, ns: list[int], repeat: int, epochs: int) -> lis
     weights = default_weights(dataset.name, cfg.reducer, cfg.interpolator)
     if weights is not None:
         net, meta = load_network(weights, arch=cfg.interpolator)
-        times = _inference_times(net, meta, data.subset([0]), ns, repeat)
+        times = _inference_times(net, meta, data.subset([0]).centres(), ns, repeat)
         results.append((f"{cfg.interpolator} inference, batch 1", {n: Timing(tuple(t)) for n, t in times.items()}))
     if epochs:
         times = _epoch_times(cfg, data, ns, epochs)

@@ -1,0 +1,107 @@
+"""Training from every drop: triples over drop pools, centres as inputs, fine-tuning, pre-training draws."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from neural_testkit import TINY, tiny_config
+
+from hapticfx.data.dataset import open_dataset
+from hapticfx.data.training import recorded_drops, training_data
+from hapticfx.errors import CheckpointError, EffectError
+from hapticfx.registry import get_registry
+from hapticfx_neural.config import load_config
+from hapticfx_neural.run import train_from_config, triples_of
+from hapticfx_neural.samples import drop_triples
+
+
+def test_triples_take_every_gap_and_the_target_is_the_drop_mean():
+    rng = np.random.default_rng(0)
+    v = np.array([1.0, 1.1, 1.2, 1.3, 1.4])
+    pools = [rng.standard_normal((4, 20)) for _ in v]
+    t = drop_triples([("a", v, pools, [1.2])], gaps=[1, 2])
+    assert sorted(zip(t.v_lo.tolist(), t.v_hi.tolist())) == [(1.0, 1.3), (1.0, 1.4), (1.1, 1.3), (1.1, 1.4)]
+    full = t.centres()
+    assert np.allclose(full.target, pools[2].mean(axis=0)) and np.allclose(full.lower_c[0], pools[t.lo[0]].mean(0))
+    a, b = t.centres(np.random.default_rng(5)), t.centres(np.random.default_rng(5))
+    assert np.array_equal(a.lower_c, b.lower_c)  # seeded: a resumed run draws the same inputs
+    drawn = [t.centres(np.random.default_rng(s)).lower_c[0] for s in range(40)]
+    assert len({x.tobytes() for x in drawn}) > 1 and np.allclose(a.target, full.target)
+    subsets = [pools[t.lo[0]][list(c)].mean(0) for k in (2, 3, 4)
+               for c in __import__("itertools").combinations(range(4), k)]
+    assert all(any(np.allclose(d, s) for s in subsets) for d in drawn)  # half of the drops or more
+
+
+def test_an_untrained_network_serves_the_blend_drawn_toward_the_centres(drop_dataset):
+    """Zero correction: halfway, the mean of the neighbours' centres; at a neighbour, its representative."""
+    from hapticfx_neural.config import MODEL_DEFAULTS
+    from hapticfx_neural.samples import Centres, stack_triples
+    from hapticfx_neural.training import make_network, predict
+
+    ds = open_dataset(drop_dataset)
+    bank = ds.bank("wood-beam", "max-min")
+    velocities, drops = recorded_drops(ds, "wood-beam", "max-min")
+    centres = Centres()
+    centres.add(bank, (velocities, drops))
+    net = make_network("convbilstm", {**MODEL_DEFAULTS["convbilstm"], **TINY}, bank.n_samples)
+    meta = {"steps": TINY["steps"], "normalisation": {"velocity_mean": 3.0, "velocity_std": 1.0}}
+    lo, hi = bank[1], bank[2]
+    for v, want in ((0.5 * (lo.velocity + hi.velocity), 0.5 * (drops[1].mean(0) + drops[2].mean(0))),
+                    (lo.velocity, lo.samples), (hi.velocity, hi.samples)):
+        out = predict(net, meta, stack_triples([(lo, hi, v, None)], ["wood-beam"], centres))[0]
+        assert np.allclose(out, want, rtol=0, atol=1e-12)
+
+
+def test_training_from_drops_serves_a_table_equal_to_direct_inference(tmp_path, drop_dataset):
+    meta, path = train_from_config(load_config(tiny_config(tmp_path, drop_dataset, epochs=2)), progress=False)
+    t = meta["training"]
+    assert t["epochs_run"] == 2 and len(t["history"]) == 2 and t["start_val_rmse_normalised"] is None  # 4 targets
+    assert meta["dataset"]["targets"] == {"wood-beam": [2.8, 3.1, 3.4, 3.7]}
+    ds = open_dataset(drop_dataset)
+    bank = ds.bank("wood-beam", "max-min")
+    tabled = get_registry().create("interpolator", "convbilstm", weights=str(path))
+    direct = get_registry().create("interpolator", "convbilstm", weights=str(path), cache=False)
+    tabled.prepare(bank, dataset=ds)
+    direct.prepare(bank, dataset=ds)
+    assert tabled.net is None
+    for v in np.linspace(2.41, 3.99, 37):
+        lo, hi = bank.neighbours(float(v))
+        a, b = tabled.interpolate(lo, hi, float(v)), direct.interpolate(lo, hi, float(v))
+        assert np.max(np.abs(a - b)) <= 1e-6 * np.max(np.abs(b))
+
+
+def test_fine_tuning_starts_from_the_given_weights_and_refuses_other_sizes(tmp_path, drop_dataset):
+    _, pre = train_from_config(load_config(tiny_config(tmp_path, drop_dataset, epochs=1)), progress=False)
+    cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=1))
+    cfg.init, cfg.out = str(pre.parent), str(tmp_path / "fine")
+    meta, _ = train_from_config(cfg, progress=False)
+    from hapticfx_neural import checkpoint
+
+    assert meta["init"]["weights_sha256"] == checkpoint.read_meta(pre)["weights_sha256"]
+    assert meta["normalisation"] == checkpoint.read_meta(pre)["normalisation"]
+    cfg.model["decoder_sizes"] = [5]
+    cfg.out = str(tmp_path / "other")
+    with pytest.raises(CheckpointError, match="cannot fine-tune: its model sizes"):
+        train_from_config(cfg, progress=False)
+
+
+def test_the_bench_runner_trains_on_drops_with_the_fold_held_out(drop_dataset):
+    """TrainingData without the held-out velocity: it is neither a target nor an input pool."""
+    ds = open_dataset(drop_dataset)
+    data = training_data(ds, "max-min", holdout={"wood-beam": [3.1]})
+    t, targets = triples_of(data, gaps=[1])
+    assert targets == {"wood-beam": [2.8, 3.4, 3.7]} and 3.1 not in t.v_lo.tolist() + t.v_hi.tolist()
+    interp = get_registry().create("interpolator", "convbilstm")
+    summary = interp.fit(data, model=TINY, training={"epochs": 1})
+    assert summary["epochs_run"] == 1
+
+
+@pytest.mark.parametrize("bad, key", [({"gaps": [0]}, "gaps"), ({"gaps": "1"}, "gaps"), ({"dataset": []}, "dataset"),
+                                      ({"init": 3}, "init"), ({"training": {"augment": "yes"}}, "training.augment")])
+def test_bad_drop_training_keys_name_the_key(tmp_path, bad, key):
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "x", **bad}))
+    with pytest.raises(EffectError) as err:
+        load_config(path)
+    assert str(path) in str(err.value) and key in str(err.value)
