@@ -12,14 +12,20 @@ from hapticfx.errors import EffectError
 
 def train(
     config: Path = typer.Argument(..., help="Training configuration YAML (see docs/neural.md)."),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Checkpoint directory (overrides `out:` in the YAML)."),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Checkpoint directory (overrides `out:` in the YAML; "
+                                       "default: checkpoints/<interpolator>-<dataset>-<reducer> here)."),
+    ship: bool = typer.Option(False, "--ship", help="Write into the plugin's shipped weights for the dataset and "
+                              "reducer (what effects use without `weights:`), replacing them; implies --release."),
     resume: bool = typer.Option(False, "--resume", help="Continue the run saved in the checkpoint directory."),
     epochs: Optional[int] = typer.Option(None, "--epochs", min=1, help="Override training.epochs."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    curves: Optional[Path] = typer.Option(None, "--curves", help="Also write the learning curves (train and "
+                                          "validation RMSE per epoch) to this PNG."),
     release: bool = typer.Option(False, "--release", help="At the end, delete the resume state (Adam moments, RNG) "
                                  "and keep only model.safetensors + model.json, e.g. for shipping weights."),
 ):
-    """Train a neural interpolator on a dataset; writes model.safetensors, model.json and its velocity table."""
+    """Train a neural interpolator on every drop of a dataset (or several: pre-training); writes model.safetensors,
+    model.json and its velocity table. The shipped weights change only with --ship."""
     from . import checkpoint
     from .config import load_config
     from .interpolator import require_torch
@@ -27,7 +33,17 @@ def train(
 
     require_torch("`hapticfx train`")
     cfg = load_config(config)
-    if out is not None:
+    if ship and out is not None:
+        raise EffectError("give --ship or --out, not both")
+    if ship:
+        if len(cfg.datasets) != 1:
+            raise EffectError("only a network trained on one dataset can be shipped", source=str(config), key="dataset")
+        from hapticfx.data.dataset import open_dataset
+
+        name = open_dataset(cfg.dataset, relative_to=config.parent).name
+        cfg.out = str(checkpoint.WEIGHTS_DIR / name / cfg.reducer / cfg.interpolator)
+        release = True
+    elif out is not None:
         cfg.out = str(out)
     if epochs is not None:
         cfg.training["epochs"] = epochs
@@ -38,7 +54,13 @@ def train(
     t = meta["training"]
     typer.echo(f"{cfg.interpolator}: {t['epochs_run']} epochs in {t['train_time_s']:.1f} s, best epoch {t['best_epoch']} "
                f"(validation RMSE {t['best_val_rmse_normalised']:.4f} normalised), {meta['parameters']:,} parameters")
-    typer.echo(f"wrote {path} and its velocity table {checkpoint.table_path(path).name}")
+    typer.echo(f"wrote {path}" + (f" and its velocity table {checkpoint.table_path(path).name}"
+                                  if checkpoint.table_path(path).is_file() else ""))
+    if curves is not None:
+        from .curves import curves_png
+
+        title = f"{cfg.interpolator} on {meta['dataset']['name']}"
+        typer.echo(f"wrote {curves_png(curves, [(cfg.interpolator, meta)], title=title)}")
 
 
 def table(
@@ -67,11 +89,42 @@ def table(
     typer.echo(f"wrote {written}")
 
 
+def simulate(
+    out: Path = typer.Argument(..., help="Folder for the specs (specs/) and the simulated datasets."),
+    rigs: int = typer.Option(8, "--rigs", min=1, max=10_000, help="How many random rigs (specs) to draw."),
+    first: int = typer.Option(0, "--first", min=0, help="Index of the first draw (to add rigs to a folder)."),
+    workers: int = typer.Option(2, "--workers", min=1, max=64, help="Processes simulating drops in parallel."),
+):
+    """Simulate drop sets for pre-training: random rigs and objects from written-down ranges, dense velocity grids.
+
+    The ranges are in hapticfx_neural/pretrain/draws.py (docs/neural.md); each rig is written as a
+    `hapticfx data synth --spec` file under OUT/specs and simulated into OUT/pretrain-<k>.
+    """
+    import time
+
+    from hapticfx.droprig.spec import load_spec
+    from hapticfx.droprig.synth import synth_dataset
+    from hapticfx.progress import say
+
+    from .pretrain.draws import write_specs
+
+    started = time.perf_counter()
+    specs = write_specs(out / "specs", first + rigs)[first:]
+    for spec in specs:
+        s = load_spec(spec)
+        path = synth_dataset(out / spec.stem, s.objects, s.velocities, drops=s.drops, seed=s.seed, name=s.name,
+                             rig=s.rig, workers=workers, overwrite=True, progress=say,
+                             command=f"hapticfx pretrain-data {out} (spec {spec.name})")
+        typer.echo(f"wrote {path}")
+    typer.echo(f"{len(specs)} rig(s) simulated in {time.perf_counter() - started:.0f} s")
+
+
 def register(app: typer.Typer, bench: typer.Typer) -> None:
     from .bench.table import bench_table
     from .bench.threads import threads
 
     app.command("train")(train)
     app.command("table")(table)
+    app.command("pretrain-data")(simulate)
     bench.command("threads")(threads)
     bench.command("table")(bench_table)

@@ -1,0 +1,48 @@
+"""`hapticfx train`'s output folder and --ship, and the pre-training rigs drawn from written-down ranges."""
+
+from __future__ import annotations
+
+import numpy as np
+import yaml
+from neural_testkit import tiny_config
+
+
+def test_train_writes_to_a_user_folder_unless_told_to_ship(tmp_path, drop_dataset, monkeypatch):
+    from typer.testing import CliRunner
+
+    from hapticfx.cli import build_app
+    from hapticfx_neural import checkpoint
+
+    cfg = yaml.safe_load(tiny_config(tmp_path, drop_dataset, epochs=1).read_text())
+    del cfg["out"]
+    path = tmp_path / "no-out.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    monkeypatch.chdir(tmp_path)
+    shipped = tmp_path / "shipped"
+    monkeypatch.setattr(checkpoint, "WEIGHTS_DIR", shipped)
+    r = CliRunner().invoke(build_app(), ["train", str(path), "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "checkpoints" / "convbilstm-toy-drops-max-min" / "model.safetensors").is_file()
+    assert not shipped.exists()
+    r = CliRunner().invoke(build_app(), ["train", str(path), "--quiet", "--ship"])
+    assert r.exit_code == 0, r.output
+    out = shipped / "toy-drops" / "max-min" / "convbilstm"
+    assert sorted(p.name for p in out.iterdir()) == ["model.json", "model.safetensors", "model.table.npz"]
+
+
+def test_pretraining_draws_are_reproducible_valid_specs_inside_their_ranges(tmp_path):
+    from hapticfx.droprig.spec import load_spec
+    from hapticfx.droprig.synth import BUILTIN_SEED
+    from hapticfx_neural.pretrain.draws import PRETRAIN_SEED, RANGES, draw_spec, write_specs
+
+    paths = write_specs(tmp_path, 3)
+    assert yaml.safe_load(paths[1].read_text()) == draw_spec(1) and draw_spec(1) != draw_spec(2)
+    for k, p in enumerate(paths):
+        spec = load_spec(p)
+        assert spec.seed == PRETRAIN_SEED + k != BUILTIN_SEED and spec.drops == RANGES["drops"]
+        for o in spec.objects:
+            assert RANGES["mass_kg"][1] <= o.mass_kg <= RANGES["mass_kg"][2]
+            vs = spec.velocities[o.id]
+            assert len(vs) == RANGES["velocities_per_object"]
+            assert np.allclose(np.diff(vs), RANGES["velocity_step_mps"])
+        assert spec.rig.sensor.range_g in RANGES["sensor_range_g"]
