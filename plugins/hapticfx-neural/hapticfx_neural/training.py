@@ -121,8 +121,10 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
     net.eval()
     with torch.no_grad():
         start_val = float(loss_of(xv, vv, yv)) if xv is not None else None
-    state = {"epoch": 0, "best": math.inf, "best_epoch": 0, "bad": 0, "elapsed_s": 0.0, "history": [],
-             "start_val": start_val}
+    # Epoch 0 (the untrained network: the blend of the neighbours' centres) is a candidate like any other:
+    # training keeps a change only where validation improves on where it started.
+    state = {"epoch": 0, "best": math.inf if start_val is None else start_val, "best_epoch": 0, "bad": 0,
+             "elapsed_s": 0.0, "history": [], "start_val": start_val}
     best_state = copy.deepcopy(net.state_dict())
     if resume:
         state, best_state = _resume(out, net, opt, gen, meta)
