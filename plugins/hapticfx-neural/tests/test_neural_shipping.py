@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import yaml
 from neural_testkit import tiny_config
 
@@ -30,19 +31,23 @@ def test_train_writes_to_a_user_folder_unless_told_to_ship(tmp_path, drop_datase
     assert sorted(p.name for p in out.iterdir()) == ["model.json", "model.safetensors", "model.table.npz"]
 
 
-def test_pretraining_draws_are_reproducible_valid_specs_inside_their_ranges(tmp_path):
+def test_pretraining_draws_are_reproducible_valid_specs_on_dense_grids_with_their_own_seeds(tmp_path):
+    from hapticfx.droprig.draws import HELDOUT_DRAW_SEEDS, HELDOUT_SIM_SEEDS, RANGES
     from hapticfx.droprig.spec import load_spec
     from hapticfx.droprig.synth import BUILTIN_SEED
-    from hapticfx_neural.pretrain.draws import PRETRAIN_SEED, RANGES, draw_spec, write_specs
+    from hapticfx.errors import DatasetError
+    from hapticfx_neural.pretrain.draws import GRID, PRETRAIN_SEED, draw_spec, write_specs
 
     paths = write_specs(tmp_path, 3)
     assert yaml.safe_load(paths[1].read_text()) == draw_spec(1) and draw_spec(1) != draw_spec(2)
     for k, p in enumerate(paths):
         spec = load_spec(p)
-        assert spec.seed == PRETRAIN_SEED + k != BUILTIN_SEED and spec.drops == RANGES["drops"]
+        assert spec.seed == PRETRAIN_SEED + k != BUILTIN_SEED and spec.drops == GRID["drops"]
+        assert spec.seed not in HELDOUT_DRAW_SEEDS and spec.seed not in HELDOUT_SIM_SEEDS
         for o in spec.objects:
-            assert RANGES["mass_kg"][1] <= o.mass_kg <= RANGES["mass_kg"][2]
+            assert RANGES["mass_kg"][0] <= o.mass_kg <= RANGES["mass_kg"][1]
             vs = spec.velocities[o.id]
-            assert len(vs) == RANGES["velocities_per_object"]
-            assert np.allclose(np.diff(vs), RANGES["velocity_step_mps"])
-        assert spec.rig.sensor.range_g in RANGES["sensor_range_g"]
+            assert len(vs) == GRID["velocities_per_object"] and np.allclose(np.diff(vs), GRID["velocity_step_mps"])
+            assert RANGES["v_min_mps"][0] <= vs[0] and vs[-1] <= RANGES["v_max_mps"][1]
+    with pytest.raises(DatasetError, match="reserved for the held-out evaluation sets"):
+        draw_spec(0, seed=HELDOUT_DRAW_SEEDS.start)
