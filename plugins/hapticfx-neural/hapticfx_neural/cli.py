@@ -120,6 +120,7 @@ def simulate(
 
 
 def register(app: typer.Typer, bench: typer.Typer) -> None:
+    from .bench.learnable import learnable
     from .bench.table import bench_table
     from .bench.threads import threads
 
@@ -128,3 +129,4 @@ def register(app: typer.Typer, bench: typer.Typer) -> None:
     app.command("pretrain-data")(simulate)
     bench.command("threads")(threads)
     bench.command("table")(bench_table)
+    bench.command("learnable")(learnable)

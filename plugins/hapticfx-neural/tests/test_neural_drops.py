@@ -105,3 +105,18 @@ def test_bad_drop_training_keys_name_the_key(tmp_path, bad, key):
     with pytest.raises(EffectError) as err:
         load_config(path)
     assert str(path) in str(err.value) and key in str(err.value)
+
+
+def test_noise_budget_tells_noise_from_a_learnable_change():
+    """Pools around one profile: the blend's error is all sampling noise; a curved truth adds what is not."""
+    from hapticfx_neural.bench.learnable import noise_budget
+
+    rng = np.random.default_rng(1)
+    v = np.linspace(1.0, 2.0, 11)
+    base = np.sin(np.linspace(0, 6, 50))
+    flat = [base + rng.standard_normal((10, 50)) * 0.1 for _ in v]
+    obs, noise = noise_budget(drop_triples([("a", v, flat, list(v[1:-1]))], gaps=[1]))
+    assert 0.7 < noise / obs < 1.3
+    curved = [base * (1 + 40 * (x - 1.5) ** 2) + rng.standard_normal((10, 50)) * 0.1 for x in v]
+    obs, noise = noise_budget(drop_triples([("a", v, curved, list(v[1:-1]))], gaps=[1]))
+    assert noise / obs < 0.5
