@@ -319,6 +319,8 @@ def bench_helmet(
     typer.echo(f"{object} at {velocity:g} m/s through {scene} on a {cap.expected_db.shape[1]}-channel null sink; "
                "level per channel relative to the impact's energy over all channels")
     typer.echo(helmet.table(list(points), cap))
+    losses = {k: v for out in cap.stats["outputs"].values() for k, v in out.get("losses", {}).items()}
+    typer.echo(f"impacts the sound card took but could not play in full, per site: {losses or 'none'}")
     if plot is not None:
         helmet.plot(plot, list(points), cap, title=f"{scene.name}: {object} at {velocity:g} m/s, recorded from a "
                                                    f"{cap.expected_db.shape[1]}-channel null sink")
