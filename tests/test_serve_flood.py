@@ -200,6 +200,11 @@ def test_serve_errors_are_one_line_and_exit_2(tmp_path):
                              capture_output=True, text=True, timeout=60)
     assert missing.returncode == 2 and missing.stderr.strip().count("\n") == 0
     assert "nope.yaml: file not found" in missing.stderr
+    (tmp_path / "ok.yaml").write_text(SCENE.format(wav=tmp_path / "o.wav", rate=0, burst=1))
+    no_dir = subprocess.run([sys.executable, "-m", "hapticfx", "serve", str(tmp_path / "ok.yaml"), "--log",
+                             str(tmp_path / "absent" / "log.jsonl")], capture_output=True, text=True, timeout=60)
+    assert no_dir.returncode == 2 and "--log" in no_dir.stderr and "does not exist" in no_dir.stderr
+    assert "Traceback" not in no_dir.stderr
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as taken:
         taken.bind(("127.0.0.1", 0))
         port = taken.getsockname()[1]
