@@ -381,10 +381,12 @@ class Engine:
         length (silent where the impact does not reach), so that file outputs stay aligned. Returns the
         (sites x samples) signal played and whether a site's limiter acted."""
         rate = signal.rate_hz
-        per_site = out.spatialiser.spread(signal.samples, rate, out.spatialiser.place(job.point, job.normal, job.channel))
+        placements = out.spatialiser.place(job.point, job.normal, job.channel)
+        per_site = out.spatialiser.spread(signal.samples, rate, placements)
         limited = False
+        sounding = {p.site for p in placements if p.gain > 0}
         for k, site in enumerate(out.sites):
-            if site.limiter is not None:
+            if site.limiter is not None and k in sounding:  # a silent row needs no limiting: zeros stay zeros
                 before = site.limiter.report().total
                 per_site[k] = site.limiter.process(per_site[k], at_s=now)
                 limited = limited or site.limiter.report().total > before

@@ -58,10 +58,12 @@ def _time_stages(pipeline, velocity: float, head: _Head, point) -> tuple[float, 
     t3 = time.perf_counter()
     pipeline.render(Impact(impact.object, velocity * (1 + 1e-9)))  # a velocity no model has cached yet
     t4 = time.perf_counter()
-    rows = head.spatialiser.spread(limited, shaped.rate_hz, head.spatialiser.place(point))
+    placements = head.spatialiser.place(point)
+    rows = head.spatialiser.spread(limited, shaped.rate_hz, placements)
     t5 = time.perf_counter()
-    for limiter, row in zip(head.limiters, rows):
-        limiter.process(row)
+    for p in placements:  # as the engine: the sounding sites' limiters (a silent row needs none)
+        if p.gain > 0:
+            head.limiters[p.site].process(rows[p.site])
     t6 = time.perf_counter()
     return t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5, (t4 - t3) + (t6 - t4)
 
