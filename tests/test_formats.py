@@ -364,3 +364,19 @@ def test_an_ogg_without_a_valid_haptic_tag_is_refused(tmp_path, comments, rule):
     path.write_bytes(b"OggS not really")
     with pytest.raises(HapticFileError, match="not an Ogg page|truncated"):
         format_named("android-ogg").read(path, QUEST, rate_hz=RATE)
+
+
+def test_what_a_fuzzer_found_is_refused_or_played(tmp_path):
+    """Found by mutating exported files (1,000s of inputs per format): each now a one-line error, or plays."""
+    long = json.loads(json.dumps(MINIMAL))
+    long["signals"]["continuous"]["envelopes"]["amplitude"][1]["time"] = 1e308
+    with pytest.raises(HapticFileError, match="hapticfx renders at most 120 s"):
+        HapticFormat().read(_file(tmp_path, long), QUEST, rate_hz=RATE)
+    text = '{"Pattern": [{"Event": {"EventType": "HapticTransient", "EventParameters": [{"ParameterID": [1]}]}}]}'
+    with pytest.raises(HapticFileError, match=r"ParameterID: expected a string"):
+        format_named("ahap").read(_file(tmp_path, text, "p.ahap"), QUEST, rate_hz=RATE)
+    path, _ = write_read(format_named("hjif"), tmp_path, impact())
+    doc = json.loads(path.read_text())
+    doc["perceptions"][0]["channels"][0]["bands"][1]["effects"][0]["position"] = -50  # a transient before 0
+    decoded = format_named("hjif").read(_file(tmp_path, doc, "n.hjif"), QUEST, rate_hz=RATE)
+    assert np.all(np.isfinite(decoded.signal.samples))

@@ -36,7 +36,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Emphasis, Pattern
+from .pattern import Curves, Emphasis, Pattern, grid_size
 
 RULES = "AHAP"
 MAX_CONTINUOUS_S = 30.0
@@ -153,7 +153,8 @@ class AhapFormat(EnvelopeFormat):
                     t = value(body.get("Time"), f"{where}.Time", 0.0, 1e6, 0.0)
                     params = {}
                     for j, p in enumerate(r.array(body.get("EventParameters", []), f"{where}.EventParameters")):
-                        pid = r.key(p, "ParameterID", f"{where}.EventParameters[{j}]")
+                        pid = _name(r, r.key(p, "ParameterID", f"{where}.EventParameters[{j}]"),
+                                    f"{where}.EventParameters[{j}].ParameterID")
                         pv = r.key(p, "ParameterValue", f"{where}.EventParameters[{j}]")
                         pwhere = f"{where}.EventParameters[{j}].ParameterValue"
                         if pid in DEFAULTS:
@@ -173,7 +174,7 @@ class AhapFormat(EnvelopeFormat):
                         d = value(body["EventDuration"], f"{where}.EventDuration", 0.0, MAX_CONTINUOUS_S, 0.0)
                         continuous.append((t, d, params))
                 elif kind in ("Parameter", "ParameterCurve"):
-                    pid = r.key(body, "ParameterID", where)
+                    pid = _name(r, r.key(body, "ParameterID", where), f"{where}.ParameterID")
                     if pid not in CONTROLS:
                         ignored.add(f"ParameterID {pid}")
                         continue
@@ -199,7 +200,7 @@ class AhapFormat(EnvelopeFormat):
                    "a pattern needs at least one haptic event")
         burst = max(device.emphasis_min.duration_ms, device.emphasis_max.duration_ms) / 1000
         end = max([t + d for t, d, _ in continuous] + [t + burst for t, _ in transients] + [1.0 / rate_hz])
-        n = int(np.floor(end * rate_hz)) + 1
+        n = grid_size(end, rate_hz, source)
         grid = np.arange(n) / rate_hz
         gain = _control(controls["HapticIntensityControl"], grid, 1.0)
         shift = _control(controls["HapticSharpnessControl"], grid, 0.0)
@@ -236,6 +237,12 @@ class AhapFormat(EnvelopeFormat):
         if ignored:
             notes.append(f"{source}: ignored, as Core Haptics ignores unsupported keys: {', '.join(sorted(ignored))}")
         return Curves(rate_hz, np.minimum(amplitude, 1.0), frequency, tuple(sorted(emphasis, key=lambda e: e.time_s))), notes
+
+
+def _name(r: Reader, node: Any, where: str) -> str:
+    if not isinstance(node, str):
+        r.fail(where, f"expected a string, got {type(node).__name__}", "types")
+    return node
 
 
 def _control(entries: list, grid: np.ndarray, default: float) -> np.ndarray:

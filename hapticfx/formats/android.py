@@ -30,7 +30,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Pattern
+from .pattern import Curves, Pattern, grid_size
 
 RULES = "Android VibrationEffect"
 DEFAULT_AMPLITUDE = 0.5
@@ -72,7 +72,7 @@ class AndroidFormat(EnvelopeFormat):
             return self._envelope(r, doc["envelope"], device, rate_hz)
         timings, amplitudes = waveform
         ends = np.cumsum(timings) / 1000.0
-        n = int(np.floor(ends[-1] * rate_hz)) + 1
+        n = grid_size(float(ends[-1]), rate_hz, r.source)
         grid = np.arange(n) / rate_hz
         idx = np.minimum(np.searchsorted(ends, grid, side="right"), len(amplitudes) - 1)
         amp = np.where(np.asarray(amplitudes) < 0, DEFAULT_AMPLITUDE, np.asarray(amplitudes) / 255.0)[idx]
@@ -125,4 +125,4 @@ class AndroidFormat(EnvelopeFormat):
             notes.append(f"{r.source}: {outside} frequency value(s) outside the device's {device.frequency_min_hz:g}-"
                          f"{device.frequency_max_hz:g} Hz, played at its nearest edge")
         pattern = Pattern(np.column_stack((t, amp)), np.column_stack((t, device.normalised(hz))))
-        return pattern.curves(rate_hz), notes
+        return pattern.curves(rate_hz, r.source), notes

@@ -127,4 +127,4 @@ class HapticFormat(EnvelopeFormat):
 
     def curves(self, doc: Any, source: str, device: Device, rate_hz: float) -> tuple[Curves, list[str]]:
         pattern, notes = self.pattern(doc, source)
-        return pattern.curves(rate_hz), notes
+        return pattern.curves(rate_hz, source), notes

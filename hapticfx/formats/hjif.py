@@ -41,7 +41,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Emphasis, Pattern
+from .pattern import Curves, Emphasis, Pattern, grid_size
 
 RULES = "HJIF (MPEG reference software)"
 VERSION = "2023"
@@ -138,7 +138,7 @@ class HjifFormat(EnvelopeFormat):
             r.fail("$.perceptions", "no vibrotactile keyframe to play", "a file to play holds a vibrotactile band")
         if skipped:
             notes.append(f"{source}: not rendered: {', '.join(sorted(skipped))}")
-        return self._render(parts, emphasis, device, rate_hz), notes
+        return self._render(parts, emphasis, device, rate_hz, source), notes
 
     def _band(self, r, band, at, scale, gain, parts, emphasis, skipped) -> None:
         btype = r.key(band, "band_type", at)
@@ -183,11 +183,11 @@ class HjifFormat(EnvelopeFormat):
                 hz = np.array([np.nan if f is None else f for f in hzs], dtype=float)
                 parts.append((np.array(times), np.array(amps) * gain, hz))
 
-    def _render(self, parts, emphasis, device: Device, rate_hz: float) -> Curves:
+    def _render(self, parts, emphasis, device: Device, rate_hz: float, source: str) -> Curves:
         lo, hi = device.emphasis_min.frequency_hz, device.emphasis_max.frequency_hz
         burst = max(device.emphasis_min.duration_ms, device.emphasis_max.duration_ms) / 1000
         end = max([p[0][-1] for p in parts] + [e[0] + burst for e in emphasis] + [1.0 / rate_hz])
-        n = int(np.floor(end * rate_hz)) + 1
+        n = grid_size(end, rate_hz, source)
         grid = np.arange(n) / rate_hz
         amplitude = np.zeros(n)
         hz = np.full(n, device.hz(0.5))

@@ -13,6 +13,17 @@ from dataclasses import dataclass
 import numpy as np
 
 DEFAULT_FREQUENCY = 0.5  # the .haptic spec's default when the frequency envelope is empty
+MAX_DURATION_S = 120.0  # what one file may ask hapticfx to render (AHAP's continuous events end at 30 s)
+
+
+def grid_size(duration_s: float, rate_hz: float, source: str) -> int:
+    """Samples from 0 to ``duration_s`` at ``rate_hz``; a file that asks for more than MAX_DURATION_S is refused."""
+    from .base import HapticFileError
+
+    if not duration_s <= MAX_DURATION_S:
+        raise HapticFileError(f"lasts {duration_s:.6g} s; hapticfx renders at most {MAX_DURATION_S:g} s of one file",
+                              source=source)
+    return int(np.floor(duration_s * rate_hz)) + 1
 
 
 @dataclass(frozen=True)
@@ -36,9 +47,9 @@ class Pattern:
     def duration_s(self) -> float:
         return float(self.amplitude[-1, 0])
 
-    def curves(self, rate_hz: float) -> "Curves":
+    def curves(self, rate_hz: float, source: str = "<pattern>") -> "Curves":
         """The envelopes sampled at ``rate_hz`` from 0 to the last amplitude breakpoint (held before and after)."""
-        n = int(np.floor(self.duration_s * rate_hz)) + 1
+        n = grid_size(self.duration_s, rate_hz, source)
         t = np.arange(n) / rate_hz
         amp = _linear(self.amplitude, t)
         freq = _linear(self.frequency, t) if len(self.frequency) else np.full(n, DEFAULT_FREQUENCY)

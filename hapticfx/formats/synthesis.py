@@ -46,7 +46,7 @@ def synthesize(curves: Curves, device: Device) -> np.ndarray:
         s = float(np.clip(e.frequency, 0.0, 1.0))
         freq = lo.frequency_hz + s * (hi.frequency_hz - lo.frequency_hz)
         dur = (lo.duration_ms + s * (hi.duration_ms - lo.duration_ms)) / 1000.0
-        start = int(round(e.time_s * rate))
+        start = max(0, int(round(e.time_s * rate)))  # a burst before the start plays at the start
         count = max(1, int(round(dur * rate)))
         t = np.arange(count) / rate
         shape = (1 - s) * wave(lo.shape, freq * t) + s * wave(hi.shape, freq * t)
