@@ -8,6 +8,7 @@ last axis, accelerations in g, profiles at the bank's rate (1 kHz by default).
 from __future__ import annotations
 
 import abc
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Hashable, NamedTuple
@@ -251,6 +252,10 @@ class SafetyLimits:
     max_duty: float | None = None
     duty_window_s: float = 10.0
     hard: "SafetyLimits | None" = field(default=None, repr=False, compare=False)
+    # who set these limits, for the log and stats() ("actuator vibro-transducer", "effect falling_brick.yaml")
+    source: str = field(default="", repr=False, compare=False)
+    # more limits that hold on the same output (the other effects and actuators sharing it): see strictest()
+    also: tuple["SafetyLimits", ...] = field(default=(), repr=False, compare=False)
 
     def __post_init__(self):
         import math
@@ -266,7 +271,7 @@ class SafetyLimits:
                 raise PluginError(f"invalid safety limits: {name} must be a number in [{lo:g}, {hi:g}]"
                                   f"{' or None' if optional else ''}, got {value!r}")
 
-    def lowered(self, **changes) -> "SafetyLimits":
+    def lowered(self, *, source: str = "", **changes) -> "SafetyLimits":
         """Stricter limits: each change may only lower a value (a window may only shrink).
 
         ``duty_window_s`` belongs to the actuator and cannot change. The result keeps
@@ -275,6 +280,8 @@ class SafetyLimits:
         from .errors import EffectError
 
         values = {}
+        if not any(v is not None for v in changes.values()):
+            return self
         for key, new in changes.items():
             if new is None:
                 continue
@@ -287,11 +294,38 @@ class SafetyLimits:
                 raise EffectError(f"{key} {new} would {what} {old}; an effect can only make limits stricter")
             values[key] = new
         own = {k: getattr(self, k) for k in _LIMIT_RANGES}
-        return SafetyLimits(**{**own, **values}, hard=self.hard or self)
+        return SafetyLimits(**{**own, **values}, hard=self.hard or self, source=source)
+
+    def labelled(self, source: str) -> "SafetyLimits":
+        """The same limits, saying who set them."""
+        return dataclasses.replace(self, source=source)
 
     def constraints(self) -> list["SafetyLimits"]:
-        """These limits and, when they were lowered from an actuator's, the hard ones."""
-        return [self] if self.hard is None else [self, self.hard]
+        """Every limit that holds: these, the hard ones they were lowered from, and those ``also`` holding."""
+        out = [self] if self.hard is None else [self, self.hard]
+        for more in self.also:
+            out += [c for c in more.constraints() if not any(c is o for o in out)]
+        return out
+
+    def strictest(self, *others: "SafetyLimits") -> "SafetyLimits":
+        """Limits that hold all of these at once (several effects or actuators on one physical output): the
+        limiter enforces every one of them, each over its own window, so the strictest wins everywhere."""
+        more = tuple(o for o in others if o is not None and o is not self and o not in self.constraints())
+        return dataclasses.replace(self, also=self.also + more) if more else self
+
+    def describe(self) -> dict:
+        """Each value with who set it (the strictest that holds), for ``stats()`` and the log."""
+        every = self.constraints()
+        out = {}
+        for key in ("peak", "rms", "max_on_s", "max_duty"):
+            held = [c for c in every if getattr(c, key) is not None]
+            if held:
+                c = min(held, key=lambda c: (getattr(c, key), c.hard is not None))  # a tie: the actuator's own
+                value = {"value": getattr(c, key), "set_by": c.source or "unnamed"}
+                if key == "rms":
+                    value["window_s"] = c.rms_window_s
+                out[key] = value
+        return out
 
 
 @dataclass(frozen=True)

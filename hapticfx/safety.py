@@ -29,6 +29,7 @@ class LimiterReport:
     on_time_events: int = 0
     duty_events: int = 0
     max_reduction_db: float = 0.0
+    acted: tuple[str, ...] = ()  # which limits acted: "peak 0.2 set by effect falling_brick.yaml", ...
 
     @property
     def total(self) -> int:
@@ -41,7 +42,8 @@ class LimiterReport:
             (self.peak_events, "peak"), (self.rms_events, "RMS"),
             (self.on_time_events, "on-time"), (self.duty_events, "duty-cycle"),
         ) if n]
-        return f"safety limiter acted: {', '.join(parts)} (max reduction {self.max_reduction_db:.1f} dB)"
+        which = f"; {', '.join(self.acted)}" if self.acted else ""
+        return f"safety limiter acted: {', '.join(parts)} (max reduction {self.max_reduction_db:.1f} dB{which})"
 
 
 class _RunStates(Sequence):
@@ -84,9 +86,16 @@ class SafetyLimiter:
     def __init__(self, limits: SafetyLimits, rate_hz: float):
         self.limits = limits
         self.rate_hz = float(rate_hz)
-        every = limits.constraints()  # the effect's limits and the actuator's hard ones
-        self._peak = min(c.peak for c in every)
-        self._rms = sorted({(c.rms, max(1, int(round(c.rms_window_s * self.rate_hz)))) for c in every})
+        every = limits.constraints()  # the effect's limits, the actuator's hard ones, and any others on the output
+        peak = min(every, key=lambda c: (c.peak, c.hard is not None))
+        self._peak, self._peak_by = peak.peak, f"peak {peak.peak:g} set by {peak.source or 'unnamed'}"
+        by = {}
+        for c in sorted(every, key=lambda c: c.hard is not None):
+            by.setdefault((c.rms, max(1, int(round(c.rms_window_s * self.rate_hz)))), c)
+        self._rms = sorted(by)
+        self._rms_by = {k: f"RMS {c.rms:g} over {c.rms_window_s * 1e3:g} ms set by {c.source or 'unnamed'}"
+                        for k, c in by.items()}
+        self._acted: set[str] = set()
         self._win = max(n for _, n in self._rms)
         on = [c.max_on_s for c in every if c.max_on_s is not None]
         duty = [c.max_duty for c in every if c.max_duty is not None]
@@ -100,16 +109,23 @@ class SafetyLimiter:
         self._counts = dict(peak_events=0, rms_events=0, on_time_events=0, duty_events=0)
         self._max_reduction = 1.0
 
-    def _note(self, kind: str, factor: float) -> None:
+    def _note(self, kind: str, factor: float, by: str | None = None) -> None:
         self._counts[kind] += 1
+        if by is not None:
+            self._acted.add(by)
         self._max_reduction = min(self._max_reduction, factor)
 
-    def process(self, samples, *, at_s: float | None = None) -> np.ndarray:
+    def process(self, samples, *, at_s: float | None = None, floor: np.ndarray | None = None) -> np.ndarray:
         """Return ``samples`` (time on the last axis) within the limits.
 
         ``at_s`` is when the block starts on the caller's clock (seconds); a gap
         since the previous block counts as silence for the RMS and duty windows.
         Without it, blocks are taken as contiguous.
+
+        ``floor`` (1D, as long as the block): what an earlier version of this stretch put there, which the
+        device may already have played (audio written over a queue the server reads ahead of). The RMS
+        limit then holds whichever of the two versions the device plays, switching from the earlier one to
+        this one anywhere: every window is checked against the larger of the two, sample by sample.
         """
         x = valid_signal(samples, name="limiter input").copy()
         with self._lock:
@@ -120,20 +136,23 @@ class SafetyLimiter:
             if peak > self._peak:
                 factor = self._peak / peak
                 x *= factor
-                self._note("peak_events", factor)
-            x = self._limit_rms(x)
+                self._note("peak_events", factor, self._peak_by)
+            x = self._limit_rms(x, floor)
             if self._max_on_s is not None or self._max_duty is not None:
                 x = self._limit_pulses(x)
             np.clip(x, -self._peak, self._peak, out=x)  # guarantee against rounding
             self._clock_s += x.shape[-1] / self.rate_hz
             keep = self._win - 1
             flat = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
+            if floor is not None:
+                flat = np.maximum(np.abs(flat), np.abs(floor))
             self._tail = np.concatenate([self._tail, flat])[-keep:] if keep else np.zeros(0)
         return x
 
-    def process_blocks(self, samples, *, block: int, at_s: float) -> tuple[np.ndarray, Sequence[tuple]]:
+    def process_blocks(self, samples, *, block: int, at_s: float,
+                       floor: np.ndarray | None = None) -> tuple[np.ndarray, Sequence[tuple]]:
         """``process`` over ``samples`` (1D) cut into consecutive blocks of ``block`` samples, the first
-        at ``at_s``: the output, and the :meth:`state` before each block.
+        at ``at_s`` (``floor``, if given, cut the same way): the output, and the :meth:`state` before each block.
 
         The same as calling ``process`` block by block, and in one pass where the RMS limit does not
         act anywhere in the run (the usual case, even where blocks are peak-limited; pulse limits
@@ -143,16 +162,17 @@ class SafetyLimiter:
         starts = range(0, x.size, block)
         with self._lock:
             if self._max_on_s is None and self._max_duty is None and x.size:
-                done = self._blocks_in_one_pass(x, block, starts, at_s)
+                done = self._blocks_in_one_pass(x, block, starts, at_s, floor)
                 if done is not None:
                     return done
         states, out = [], np.empty_like(x)
         for k in starts:
             states.append(self.state())
-            out[k:k + block] = self.process(x[k:k + block], at_s=at_s + k / self.rate_hz)
+            out[k:k + block] = self.process(x[k:k + block], at_s=at_s + k / self.rate_hz,
+                                            floor=None if floor is None else floor[k:k + block])
         return out, states
 
-    def _blocks_in_one_pass(self, x: np.ndarray, block: int, starts: range, at_s: float):
+    def _blocks_in_one_pass(self, x: np.ndarray, block: int, starts: range, at_s: float, floor):
         """``process_blocks`` without a loop over blocks, or None (nothing changed) where the RMS limit
         would act: each block's peak gain is the one ``process`` would give it, and where no RMS window
         of the peak-limited run is over its budget, no block's own check would find one either."""
@@ -164,12 +184,14 @@ class SafetyLimiter:
         out = x * np.repeat(gains, block)[:x.size] if acts.any() else x.copy()
         np.clip(out, -self._peak, self._peak, out=out)
         tail = self._tail_after_gap(at_s) if at_s > self._clock_s else self._tail
-        joined = np.concatenate([tail, out])
+        joined = np.concatenate([tail, out if floor is None else np.maximum(np.abs(out), np.abs(floor))])
         if self._over_budget(joined, slack=1 + 1e-12):
             return None
         events = self._counts["peak_events"] + np.concatenate([[0], np.cumsum(acts)])
         reduction = np.minimum.accumulate(np.concatenate([[self._max_reduction], gains]))
         states = _RunStates(self._state(), joined, tail.size, keep, at_s, block, self.rate_hz, events, reduction)
+        if events[-1] > self._counts["peak_events"]:
+            self._acted.add(self._peak_by)
         self._counts["peak_events"] = int(events[-1])
         self._max_reduction = float(reduction[-1])
         self._tail = joined[-keep:] if keep else np.zeros(0)
@@ -200,11 +222,12 @@ class SafetyLimiter:
             self._tail, history, self._clock_s, counts, self._max_reduction = state
             self._on_history, self._counts = deque(history), dict(counts)
 
-    def _over_budget(self, joined: np.ndarray, slack: float = 1.0) -> bool:
-        """Whether any window of any RMS constraint holds more energy than it may."""
+    def _over_budget(self, joined: np.ndarray, slack: float = 1.0, *, squared: bool = False) -> bool:
+        """Whether any window of any RMS constraint holds more energy than it may (``joined`` squared already
+        with ``squared``)."""
         # Not a BLAS dot product: OpenBLAS hands a long one to its helper thread, which a busy core can stall
         # for milliseconds.
-        sq = joined * joined
+        sq = joined if squared else joined * joined
         total = float(sq.sum())  # no window holds more than all of it: most impacts stop here
         for rms, win in self._rms:
             budget = rms * rms * win * slack
@@ -226,20 +249,53 @@ class SafetyLimiter:
                 return True
         return False
 
-    def _limit_rms(self, x: np.ndarray) -> np.ndarray:
+    def _limit_rms(self, x: np.ndarray, floor: np.ndarray | None) -> np.ndarray:
         mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
-        if not self._over_budget(np.concatenate([self._tail, mono]), slack=1 + 1e-12):
+        sq = mono * mono
+        floor_sq = None if floor is None else np.asarray(floor, dtype=np.float64) ** 2  # either version may play
+        if not self._over_budget(np.concatenate([self._tail ** 2, sq if floor_sq is None else np.maximum(sq, floor_sq)]),
+                                 slack=1 + 1e-12, squared=True):
             return x
-        # Energy the earlier (already sent) samples contribute cannot be changed:
-        # scale only the new samples so every window of every constraint stays within budget.
-        lo, hi = 0.0, 1.0
-        for _ in range(40):  # bisection on the gain for the new samples
-            mid = 0.5 * (lo + hi)
-            if self._over_budget(np.concatenate([self._tail, mono * mid])):
-                hi = mid
-            else:
-                lo = mid
-        self._note("rms_events", max(lo, 1e-12))
+        # Energy the earlier (already sent) samples contribute cannot be changed: scale only the new samples
+        # so that every window reaching into them stays within budget, for every constraint. Each window
+        # ending at new sample j holds a fixed part of the tail and the new samples up to j.
+        checks = []
+        for rms, win in self._rms:
+            tail_sq = self._tail[-(win - 1):] ** 2 if win > 1 and self._tail.size else np.zeros(0)
+            csum_tail = np.concatenate([[0.0], np.cumsum(tail_sq)])
+            j = np.arange(sq.size)
+            from_tail = np.minimum(tail_sq.size, np.maximum(0, win - 1 - j))  # tail samples in window j
+            fixed = csum_tail[-1] - csum_tail[tail_sq.size - from_tail]
+            first = np.maximum(0, j - win + 1)
+            checks.append((rms * rms * win - fixed, first, j + 1, (rms, win)))
+
+        def fits(gains: np.ndarray) -> np.ndarray:
+            """Which of ``gains`` keep every window within budget."""
+            played = sq[None, :] * (gains * gains)[:, None]
+            if floor_sq is not None:
+                played = np.maximum(played, floor_sq[None, :])
+            c = np.concatenate([np.zeros((gains.size, 1)), np.cumsum(played, axis=1)], axis=1)
+            ok = np.ones(gains.size, dtype=bool)
+            for budget, first, end, _ in checks:
+                ok &= np.max(c[:, end] - c[:, first] - budget, axis=1) <= 0.0
+            return ok
+
+        whole = sq if floor_sq is None else np.maximum(sq, floor_sq)
+        c1 = np.concatenate([[0.0], np.cumsum(whole)])
+        acting = [key for budget, first, end, key in checks if np.max(c1[end] - c1[first] - budget) > 0.0]
+
+        # The energy grows with the gain: between a gain that fits (lo) and one that does not (lo + step),
+        # try `parts - 1` gains at once and narrow to the part below the first that does not fit (a few
+        # array passes where a bisection took thirty; fewer gains a pass for long blocks).
+        parts = max(2, min(64, 200_000 // max(1, sq.size)))
+        lo, step = 0.0, 1.0
+        for _ in range(int(np.ceil(np.log(1e6) / np.log(parts)))):
+            grid = lo + step * np.arange(1, parts) / parts
+            ok = fits(grid)
+            n_ok = ok.size if ok.all() else int(np.argmin(ok))  # fits is monotone: a run of True first
+            lo = float(grid[n_ok - 1]) if n_ok else lo
+            step /= parts
+        self._note("rms_events", max(lo, 1e-12), self._rms_by[acting[0]] if acting else None)
         return x * lo
 
     def _limit_pulses(self, x: np.ndarray) -> np.ndarray:
@@ -275,4 +331,4 @@ class SafetyLimiter:
     def report(self) -> LimiterReport:
         with self._lock:
             db = -20 * np.log10(self._max_reduction) if self._max_reduction > 0 else float("inf")
-            return LimiterReport(**self._counts, max_reduction_db=float(db))
+            return LimiterReport(**self._counts, max_reduction_db=float(db), acted=tuple(sorted(self._acted)))

@@ -171,6 +171,13 @@ class QueueMixer(Mixer):
     from the limiters' state at its start, kept while it is queued, so the audio limited again goes
     on from exactly what was already sent before it: the limits hold across the seam. :meth:`heard` says how far playback got;
     the mixer forgets what lies before.
+
+    A write over the queue can land after the server has read past its start (a ``late`` write: the
+    machine paused between working out the position and the write): the device then plays the earlier
+    version up to some frame and the new one from there. So the mixer keeps, per position, the largest
+    magnitude any version written there had (``_sent``), and limits the audio written again against it
+    (:meth:`SafetyLimiter.process` ``floor``): the RMS limit holds wherever the switch falls, and after
+    any number of writes over one stretch.
     """
 
     def __init__(self, channels: int, rate_hz: float, *, max_voices: int = DEFAULT_MAX_VOICES, ring_s: float = RING_S):
@@ -179,6 +186,13 @@ class QueueMixer(Mixer):
         self._kept = 0  # the ring is zero before here, and limiter states are kept from here on
         # (start, stop, each limiter's states per quantum) of each run limited, tiling _kept.. _clock
         self._runs: list[tuple[int, int, list]] = []
+        self._sent = np.zeros_like(self._ring)  # the largest |x| written at each position not yet heard
+
+    def widen(self, channels: int) -> None:
+        super().widen(channels)
+        with self._lock:
+            if self._sent.shape[0] < self.channels:
+                self._sent = np.vstack([self._sent, np.zeros((self.channels - self._sent.shape[0], self._size))])
 
     def _prune(self) -> None:
         while self._ends and self._ends[0] <= self._heard:
@@ -201,7 +215,9 @@ class QueueMixer(Mixer):
         for ch, lim in limiters:
             x = self._ring[ch, idx]
             if x.any():
-                out[:, ch], states = lim.process_blocks(x, block=QUANTUM, at_s=start / self.rate_hz)
+                floor = self._sent[ch, idx] if again else None
+                out[:, ch], states = lim.process_blocks(x, block=QUANTUM, at_s=start / self.rate_hz, floor=floor)
+                self._sent[ch, idx] = np.abs(out[:, ch]) if floor is None else np.maximum(floor, np.abs(out[:, ch]))
             else:  # silence leaves the limiter as it is; its next block counts the gap
                 states = [lim.state()] * len(quanta)
             per_channel.append(states)
@@ -247,13 +263,14 @@ class QueueMixer(Mixer):
             if q <= self._kept:
                 return
             first, n = self._kept % self._size, q - self._kept
-            if n >= self._size:
-                self._ring[:] = 0.0
-            elif first + n <= self._size:
-                self._ring[:, first:first + n] = 0.0
-            else:
-                self._ring[:, first:] = 0.0
-                self._ring[:, :first + n - self._size] = 0.0
+            for ring in (self._ring, self._sent):
+                if n >= self._size:
+                    ring[:] = 0.0
+                elif first + n <= self._size:
+                    ring[:, first:first + n] = 0.0
+                else:
+                    ring[:, first:] = 0.0
+                    ring[:, :first + n - self._size] = 0.0
             while self._runs and self._runs[0][1] <= q:
                 self._runs.pop(0)
             self._kept = q
@@ -263,6 +280,7 @@ class QueueMixer(Mixer):
         """Forget everything for a new stream, whose positions start at 0; returns how many impacts were cut."""
         cut = self.clear()
         with self._lock:
+            self._sent[:] = 0.0
             self._clock = self._heard = self._kept = 0
             self._runs.clear()
         return cut
