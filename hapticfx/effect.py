@@ -164,6 +164,10 @@ class Effect:
     source: str
     base_dir: Path
     description: str = ""
+    # the limits of the effect's own actuator section, with the file that set them, kept where a scene
+    # routes the effect to another actuator: they still hold there (the strictest wins)
+    own_limits: tuple[tuple[LimitParams, str], ...] = ()
+    actuator_source: str = ""  # who wrote the actuator section, where not the effect file (a scene)
 
     def context(self, *, device=None) -> BuildContext:
         return BuildContext(
@@ -325,8 +329,16 @@ def check_effect(effect: Effect, *, registry: Registry | None = None) -> Plan:
 
 
 def effective_limits(hard: SafetyLimits, effect: Effect) -> SafetyLimits:
-    """The actuator's hard limits, lowered by the effect file where it asks."""
+    """The actuator's hard limits, lowered by the effect's actuator section where it asks, and by the limits
+    of the effect's own actuator section where a scene routed it elsewhere: the strictest of them all holds."""
     try:
-        return hard.lowered(**dataclasses.asdict(effect.actuator.limits))
+        limits = hard.lowered(**dataclasses.asdict(effect.actuator.limits),
+                              source=effect.actuator_source or f"effect {effect.source}")
     except EffectError as exc:
         raise EffectError(str(exc), source=effect.source, key="actuator.limits") from None
+    for own, source in effect.own_limits:
+        try:
+            limits = limits.strictest(hard.lowered(**dataclasses.asdict(own), source=f"effect {source}"))
+        except EffectError as exc:
+            raise EffectError(str(exc), source=source, key="actuator.limits") from None
+    return limits

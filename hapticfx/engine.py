@@ -41,9 +41,11 @@ from .osc import ImpactMessage
 from .pipeline import Delivery, Pipeline, build_actuator
 from .ratelog import RateLimitedLog
 from .registry import Registry
+from .conformance import limits_own_mix
 from .safety import SafetyLimiter
 from .scene import Scene, load_scene, stand_in_for
 from .signal import Signal, valid_number, valid_velocity
+from .sumbound import SumBound
 from .spatial import Spatialiser
 
 log = logging.getLogger(__name__)
@@ -111,22 +113,39 @@ class _Site:
     name: str
     channel: int
     actuator: Actuator
-    limiter: SafetyLimiter | None
+    limiter: SafetyLimiter | SumBound | None = None
+
+
+def host_limiter(actuator: Actuator, limits, *, summed: bool) -> SafetyLimiter | SumBound | None:
+    """The host's limit on what reaches one opened actuator, at the rate it reports after ``open()``: none
+    where the actuator limits its own mix and its limiter passed the conformance check
+    (:mod:`hapticfx.conformance`), a bound on any sum where it sums impacts without that
+    (:class:`~hapticfx.sumbound.SumBound`), a limiter on the stream where several effects (or sites) share it
+    (``summed``; a single effect's pipeline limits its stream itself)."""
+    rate = actuator.spec.rate_hz
+    if limits_own_mix(actuator):
+        return None
+    if actuator.limits_mix:
+        return SumBound(limits, rate)
+    return SafetyLimiter(limits, rate) if summed else None
 
 
 class _Output:
-    """One opened actuator: its queue, its worker, and (when effects share it and the actuator does not limit
-    its own mix) a limiter on their sum. A head output (a scene's ``head``) has several actuators, its
+    """One physical output (however many scene entries name it): its queue, its worker, and the host's limit
+    on the sum of its effects (:meth:`arm`). A head output (a scene's ``head``) has several actuators, its
     ``sites``, each with its own limiter, and a spatialiser that spreads each impact over them."""
 
-    def __init__(self, name: str, actuator: Actuator, shared: bool, limits, queue_size: int, *,
+    def __init__(self, name: str, actuator: Actuator, pipelines: list[Pipeline], queue_size: int, *,
                  sites: list[_Site] | None = None, spatialiser: Spatialiser | None = None):
         self.name = name
         self.actuator = actuator
+        self.pipelines = pipelines
+        self.limits = pipelines[0].limits.strictest(*(p.limits for p in pipelines[1:]))
         self.sites = sites
         self.spatialiser = spatialiser
-        self.limiter = (SafetyLimiter(limits, actuator.spec.rate_hz)
-                        if shared and not actuator.limits_mix and sites is None else None)
+        self.limiter: SafetyLimiter | SumBound | None = None
+        self.aliases: list[str] = []  # the other scene names of this output
+        self.told: set[str] = set()  # the limits the log has already said acted
         self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self.stop = threading.Event()
         self.counts = dict.fromkeys(OUTPUT_COUNTS, 0)
@@ -138,6 +157,20 @@ class _Output:
     @property
     def actuators(self) -> list[Actuator]:
         return [self.actuator] if self.sites is None else [s.actuator for s in self.sites]
+
+    def arm(self) -> None:
+        """The host's limiters, once the actuators are open (see :func:`host_limiter`)."""
+        if self.sites is None:
+            self.limiter = host_limiter(self.actuator, self.limits, summed=len(self.pipelines) > 1)
+            return
+        for site in self.sites:
+            site.limiter = host_limiter(site.actuator, self.limits,
+                                        summed=len(self.sites) > 1 or len(self.pipelines) > 1)
+
+    def reports(self) -> list:
+        """The host's limiter reports of this output (its sum, or each site's)."""
+        limiters = [self.limiter] if self.sites is None else [s.limiter for s in self.sites]
+        return [lim.report() for lim in limiters if lim is not None]
 
 
 def _play_on(actuator: Actuator, signal: Signal, job: "_Job") -> None:
@@ -201,53 +234,59 @@ class Engine:
     # --- building ---------------------------------------------------------------
 
     def _build(self, device, registry, queue_size: int) -> None:
+        """One output per physical output: scene entries whose actuators resolve to one device and channel
+        (``Actuator.output_key``), under whatever names, share one actuator, queue and limiter."""
         groups: dict[str, list[str]] = {}
         for oid, entry in self.scene.entries.items():
             groups.setdefault(entry.output, []).append(oid)
         head = self.scene.head
+        physical: dict[object, _Output] = {}
         for output, oids in groups.items():
             dev = stand_in_for(device, output, len(groups))
-            first = None
+            pipelines = []
             for oid in oids:
-                pipeline = Pipeline(self.scene.entries[oid].effect, device=dev, registry=registry)
-                self._pipelines[oid] = pipeline
-                first = first or pipeline
+                pipelines.append(Pipeline(self.scene.entries[oid].effect, device=dev, registry=registry))
+                self._pipelines[oid] = pipelines[-1]
             if head is not None and output == f"actuators.{head.actuator}":
-                self._outputs[output] = self._head_output(output, oids, first, device, len(groups), queue_size)
+                out = self._outputs[output] = self._head_output(output, pipelines, device, len(groups), queue_size)
             else:
-                self._outputs[output] = _Output(output, first.actuator, len(oids) > 1, first.limits, queue_size)
+                key = pipelines[0].actuator.output_key()
+                out = physical.get(key) if key is not None else None
+                if out is None:
+                    out = self._outputs[output] = _Output(output, pipelines[0].actuator, pipelines, queue_size)
+                    if key is not None:
+                        physical[key] = out
+                else:  # another name for an output already built
+                    out.aliases.append(output)
+                    out.pipelines += pipelines
+                    out.limits = out.limits.strictest(*(p.limits for p in pipelines))
             for oid in oids:
-                self._route[oid] = self._outputs[output]
+                self._route[oid] = out
 
-    def _head_output(self, output: str, oids: list[str], first: Pipeline, device, n_groups: int,
+    def _head_output(self, output: str, pipelines: list[Pipeline], device, n_groups: int,
                      queue_size: int) -> _Output:
         """The scene's head: one actuator per site (the head actuator's section on the site's channel)."""
         head = self.scene.head
-        several = len(head.sites) > 1
+        first = pipelines[0]
         sites = []
         for site in head.sites:
             effect = dataclasses.replace(first.effect, actuator=dataclasses.replace(first.effect.actuator,
                                                                                     channel=site.channel))
             dev = stand_in_for(device, f"{output}#{site.channel}", n_groups + len(head.sites) - 1)
-            actuator = build_actuator(first.plan, effect, dev)
-            actuator.limits = first.limits
-            limiter = (SafetyLimiter(first.limits, actuator.spec.rate_hz)
-                       if (several or len(oids) > 1) and not actuator.limits_mix else None)
-            sites.append(_Site(site.name, site.channel, actuator, limiter))
-        for oid in oids:  # shape at the rate the sites' device agrees on when it opens
-            self._pipelines[oid].actuator = sites[0].actuator
-        return _Output(output, sites[0].actuator, len(oids) > 1, first.limits, queue_size, sites=sites,
-                       spatialiser=Spatialiser(head))
+            sites.append(_Site(site.name, site.channel, build_actuator(first.plan, effect, dev)))
+        return _Output(output, sites[0].actuator, pipelines, queue_size, sites=sites, spatialiser=Spatialiser(head))
 
     def _open_outputs(self) -> None:
         opened = []
         try:
             for out in self._outputs.values():
                 for actuator in out.actuators:
+                    actuator.limits = out.limits  # what an actuator that limits its own mix holds on it
                     actuator.open()
                     opened.append(actuator)
-            for pipeline in self._pipelines.values():
-                pipeline.warm()
+                out.arm()
+                for pipeline in out.pipelines:  # shape and limit at the rate the device agreed on
+                    pipeline.adopt(out.actuator)
         except BaseException:
             for actuator in opened:
                 actuator.close()
@@ -363,6 +402,10 @@ class Engine:
                 signal = Signal.adopt(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)
                 limited = limited or out.limiter.report().total > before
             _play_on(out.actuator, signal, job)
+        acted = set(delivery.limiter.acted).union(*(r.acted for r in out.reports())) if limited else set()
+        for what in acted - out.told:  # once per limit and output: which limit acted, and who set it
+            out.told.add(what)
+            self._log.event(("limit", out.name, what), f"{out.name}: the safety limit acted: {what}")
         for note in delivery.notes:
             self._log.event(("note", job.object), f"{job.object}: {note}")
         playback = Playback(job.object, job.at, job.velocity, out.name, signal.peak, signal.duration_s, limited,
@@ -448,9 +491,29 @@ class Engine:
             summary = _latency_summary(lat)
             if summary:
                 entry["latency_ms"] = summary
+            entry.update(self._limits_of(self._outputs[name]))
             outputs[name] = entry
         out["outputs"] = outputs
         return out
+
+    @staticmethod
+    def _limits_of(o: _Output) -> dict:
+        """The limits that hold on an output, who set each, and which acted so far (the effects' limiters,
+        the host's, and the mixer of an actuator that limits its own sum)."""
+        acted = set().union(*(p.limiter.report().acted for p in o.pipelines), *(r.acted for r in o.reports()))
+        for actuator in o.actuators:
+            report = getattr(actuator, "limiter_report", None)
+            if report is not None:
+                try:
+                    acted |= set(report().acted)
+                except HapticfxError:  # closed: its mixer is gone
+                    pass
+        entry = {"limits": o.limits.describe()}
+        if acted:
+            entry["limits_acted"] = sorted(acted)
+        if o.aliases:
+            entry["also_named"] = list(o.aliases)
+        return entry
 
     def played(self) -> list[Played]:
         """Summaries of the last ``keep_last`` impacts played, oldest first."""

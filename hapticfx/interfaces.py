@@ -351,7 +351,8 @@ class Actuator(abc.ABC):
     name: ClassVar[str]
     spec: ActuatorSpec
     # True when the actuator sums overlapping impacts itself and runs a SafetyLimiter with its ``limits`` on the
-    # sum it outputs (a sound card's mixing stream): an engine then leaves the sum of its effects to it.
+    # sum it outputs (a sound card's mixing stream). The host believes it only if the class's ``mix_probe``
+    # passes hapticfx.conformance.check_mix_limiter; else it bounds the sum itself (hapticfx.sumbound).
     limits_mix: ClassVar[bool] = False
     # True when ``play`` takes ``received=`` (the ``time.perf_counter()`` at which the impact was received) and
     # counts the impact's latency from then, so that the time spent rendering it does not add to it (a sound
@@ -362,7 +363,16 @@ class Actuator(abc.ABC):
     takes_time: ClassVar[bool] = False
 
     def open(self) -> None:
-        """Acquire the device. Raises :class:`hapticfx.errors.DeviceError` if it is absent."""
+        """Acquire the device. Raises :class:`hapticfx.errors.DeviceError` if it is absent.
+
+        ``spec`` may change here (the rate the device agreed to): the host shapes and limits at the rate
+        ``spec`` reports after ``open()``."""
+
+    def output_key(self):
+        """The physical output (device and channel, as they resolve on this machine) this actuator plays
+        into, or None (the default) for an output only this object writes to. Scene entries and effects whose
+        actuators give one key share one output and one limiter; may be called before ``open()``."""
+        return None
 
     @abc.abstractmethod
     def play(self, signal: Signal) -> None:

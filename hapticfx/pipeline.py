@@ -91,7 +91,8 @@ class Pipeline:
         self.model: Model = _located(lambda: self.plan.model_cls(self.plan.model_params, context), effect, "model")
         self.actuator: Actuator = build_actuator(self.plan, effect, device)
         spec = self.actuator.spec
-        self.limits = effective_limits(spec.limits, effect)
+        self.limits = effective_limits(spec.limits.labelled(spec.limits.source or f"actuator {effect.actuator.type}"),
+                                       effect)
         self.actuator.limits = self.limits
         self.limiter = SafetyLimiter(self.limits, spec.rate_hz)
         self.gain = effect.actuator.gain if effect.actuator.gain is not None else spec.default_gain
@@ -114,8 +115,16 @@ class Pipeline:
         if not self._opened:
             self.actuator.open()
             self._opened = True
-            self.warm()
+            self.adopt(self.actuator)
         return self
+
+    def adopt(self, actuator: Actuator) -> None:
+        """Play through ``actuator`` as it is once open (an engine's shared one): the limiter runs at the rate it
+        reports now (a device may have agreed to another in ``open()``), and the atoms are shaped for it."""
+        self.actuator = actuator
+        if self.limiter.rate_hz != actuator.spec.rate_hz:
+            self.limiter = SafetyLimiter(self.limits, actuator.spec.rate_hz)
+        self.warm()
 
     def warm(self) -> None:
         """Shape the model's atoms for the actuator as it is now (opened: at its agreed rate), so that the

@@ -284,6 +284,16 @@ class SafetyLimiter:
         c1 = np.concatenate([[0.0], np.cumsum(whole)])
         acting = [key for budget, first, end, key in checks if np.max(c1[end] - c1[first] - budget) > 0.0]
 
+        if floor_sq is None:  # each window's energy is gain^2 times its new part's, plus what it holds already
+            c1 = np.concatenate([[0.0], np.cumsum(sq)])
+            lo = 1.0
+            for budget, first, end, _ in checks:
+                part = c1[end] - c1[first]
+                ratio = budget[part > 0] / part[part > 0]
+                if ratio.size:
+                    lo = min(lo, float(np.sqrt(max(0.0, float(ratio.min())))) * (1 - 1e-9))
+            self._note("rms_events", max(lo, 1e-12), self._rms_by[acting[0]] if acting else None)
+            return x * lo
         # The energy grows with the gain: between a gain that fits (lo) and one that does not (lo + step),
         # try `parts - 1` gains at once and narrow to the part below the first that does not fit (a few
         # array passes where a bisection took thirty; fewer gains a pass for long blocks).

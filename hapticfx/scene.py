@@ -17,8 +17,10 @@ A scene (YAML, safe loader, unknown keys are errors naming file and key path)::
 
 An entry that names a scene ``actuator`` plays on it instead of its own
 effect's actuator section (which is then validated for structure only, so a
-scene can reroute an effect written for hardware it lacks). Entries that name
-the same scene actuator share one opened actuator. Building a scene builds
+scene can reroute an effect written for hardware it lacks); the effect's own
+``limits`` still hold there: the scene may lower a limit, never raise it.
+Entries that name the same scene actuator, or actuators that resolve to the
+same device and channel, share one opened actuator and one limiter. Building a scene builds
 only the models, plugins, datasets and weights its effects reference.
 
 An optional ``head`` puts several actuators on the head, each a channel of one
@@ -34,7 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .effect import ActuatorSection, Effect, effect_from_mapping, parse_actuator_section, read_yaml
+from .effect import ActuatorSection, Effect, LimitParams, effect_from_mapping, parse_actuator_section, read_yaml
 from .atomic import user_path
 from .errors import EffectError, preview
 from .params import doc, parse_params
@@ -142,7 +144,11 @@ def _entry(object_id: Any, raw: Any, *, source: str, base_dir: Path, actuators: 
                 f"unknown actuator {preview(name)}; the scene's actuators: {', '.join(actuators) or 'none'}",
                 source=source, key=f"{key}.actuator",
             )
-        effect = dataclasses.replace(effect, actuator=actuators[name])
+        own = effect.own_limits
+        if effect.actuator.limits != LimitParams():  # the effect's own limits hold wherever it is routed
+            own += ((effect.actuator.limits, effect.source),)
+        effect = dataclasses.replace(effect, actuator=actuators[name], own_limits=own,
+                                     actuator_source=f"scene {source} actuators.{name}")
         output = f"actuators.{name}"
     if "channel" in raw:
         channel = _channel(raw["channel"], source=source, key=f"{key}.channel")

@@ -21,7 +21,8 @@ from hapticfx.params import BuildContext, doc
 from hapticfx.shaping import resample
 from hapticfx.signal import Signal
 
-from .devices import negotiate_rate, resolve_device
+from .devices import negotiate_rate, physical_output, resolve_device
+from .mixer import QueueProbe
 from .shared import SharedStream
 
 log = logging.getLogger(__name__)
@@ -49,7 +50,8 @@ class SoundCardParams:
         "seconds of audio kept queued at a PulseAudio (or PipeWire-Pulse) server, so that pauses of the machine "
         "shorter than it leave no gap; each impact is written over the queue `ahead` before playback "
         "(docs/soundcard.md); device then names a sink; 0: a PortAudio stream of `latency`; 'auto': a 0.15 s "
-        "queue on the default device when a PulseAudio server answers, else PortAudio", min=0.0, max=2.0))
+        "queue when a PulseAudio server answers and the device is the default (or `pulse`) or names one of its "
+        "sinks, else PortAudio", min=0.0, max=2.0))
     ahead: float = field(default=0.01, metadata=doc(
         "with queue: how far ahead of playback a new impact is written, i.e. its latency; an engine's impact is "
         "written that long after it was received, so its render time does not add (down to 5 ms ahead)",
@@ -101,27 +103,69 @@ class SoundCardActuator(Actuator):
         from . import stream as streams
 
         p = self.params
-        default_device = self.device_request in (None, "default")
-        if p.queue == "auto" and default_device or p.queue not in ("auto", 0):
+        default_device = self.device_request in (None, "default", "pulse")  # the server's default sink
+        # auto: a queue wherever the device names a sink of a PulseAudio server that answers (a number is a
+        # PortAudio device index)
+        sink_name = isinstance(self.device_request, str) and not self.device_request.strip().isdigit()
+        if p.queue == "auto" and (default_device or sink_name) or p.queue not in ("auto", 0):
             try:
                 self._stream = queuestream.acquire(
                     None if default_device else str(self.device_request), channel=self.channel,
-                    rate_hz=self.spec.rate_hz, limits=self.limits, queue_s=AUTO_QUEUE_S if p.queue == "auto" else p.queue,
+                    limits=self.limits, queue_s=AUTO_QUEUE_S if p.queue == "auto" else p.queue,
                     ahead_s=p.ahead, max_voices=p.max_impacts, watchdog_s=p.watchdog_s)
+                self._adopt_rate(self._stream.rate_hz)
                 return
             except DeviceError as exc:
                 if p.queue != "auto":
                     raise
                 log.debug("%s: no PulseAudio queue (%s); PortAudio instead", self.name, exc)
         device = resolve_device(self.device_request)
-        rate, self.note = negotiate_rate(device, self.spec.rate_hz, channels=min(2, device.channels))
+        physical, sink_rate = physical_output(device)
+        rate, self.note = negotiate_rate(device, sink_rate or self.spec.rate_hz, channels=min(2, device.channels))
         if self.note:
             print(f"{self.name}: {self.note}", file=sys.stderr)
-        self.spec = dataclasses.replace(self.spec, rate_hz=rate)
         self._stream = streams.acquire(
-            device, channel=self.channel, rate_hz=rate, limits=self.limits, latency=p.latency,
+            device, physical, channel=self.channel, rate_hz=rate, limits=self.limits, latency=p.latency,
             max_latency=p.max_latency, blocksize=p.blocksize, max_voices=p.max_impacts, watchdog_s=p.watchdog_s,
         )
+        self._adopt_rate(self._stream.rate_hz)
+
+    def _adopt_rate(self, rate_hz: float) -> None:
+        """Run at the rate of the stream: the sink's on a PulseAudio server (which then resamples nothing
+        after the limiter), the device's otherwise; impacts are shaped for it after open()."""
+        if rate_hz != self.spec.rate_hz:
+            self.note = self.note or f"{self.spec.rate_hz:g} Hz asked, the output runs at {rate_hz:g} Hz"
+            log.info("%s: %s", self.name, self.note)
+            self.spec = dataclasses.replace(self.spec, rate_hz=float(rate_hz))
+
+    def output_key(self):
+        """The sink (or PortAudio device) and channel this actuator plays into, resolved as ``open()`` would:
+        the default sink named ``default``, ``pulse`` or by its own name is one output."""
+        from . import queuestream
+        from .libpulse import sink_info
+
+        p = self.params
+        if self._stream is not None:
+            return self._stream.physical, self.channel
+        default_device = self.device_request in (None, "default", "pulse")
+        sink_name = isinstance(self.device_request, str) and not self.device_request.strip().isdigit()
+        try:
+            if p.queue == "auto" and (default_device or sink_name) or p.queue not in ("auto", 0):
+                try:
+                    name, _ = sink_info(None if default_device else str(self.device_request))
+                    return queuestream.physical_sink(name), self.channel
+                except DeviceError:
+                    if p.queue != "auto":
+                        raise
+            return physical_output(resolve_device(self.device_request))[0], self.channel
+        except DeviceError:
+            return None  # open() will say what is wrong
+
+    @classmethod
+    def mix_probe(cls, limits: SafetyLimits, rate_hz: float):
+        """The stream's mixer and limiter without a device, for the host's conformance check
+        (:mod:`hapticfx.conformance`): impacts written over a queue, landing late as a busy machine makes them."""
+        return QueueProbe(limits, rate_hz)
 
     @property
     def queue_s(self) -> float:
@@ -163,7 +207,7 @@ class SoundCardActuator(Actuator):
     def close(self) -> None:
         stream, self._stream = self._stream, None
         if stream is not None:
-            stream.release(self.channel, drain_timeout_s=10.0)
+            stream.release(self.channel, drain_timeout_s=10.0, limits=self.limits)
 
     def losses(self) -> dict[str, int]:
         """Impacts taken but not played in full: not mixed in because ``max_impacts`` were sounding

@@ -83,6 +83,27 @@ def resolve_device(device: str | int | None) -> OutputDevice:
     return found[0]
 
 
+PULSE_ALSA_DEVICES = ("pulse", "default")  # ALSA devices that play into the PulseAudio server's default sink
+
+
+def physical_output(device: OutputDevice) -> tuple[tuple, int | None]:
+    """The output ``device`` plays into, as a key shared with every other way of reaching it, and the rate
+    it runs at where that is known: ALSA's ``pulse`` and ``default`` devices play into the default sink of
+    a PulseAudio server that answers (``("pulse", sink name)``, the sink's rate); any other device is
+    itself (``("portaudio", index)``, None)."""
+    if device.hostapi == "ALSA" and device.name in PULSE_ALSA_DEVICES:
+        from .libpulse import sink_info
+        from .queuestream import physical_sink
+
+        try:
+            name, rate = sink_info(None)
+        except DeviceError:  # no server (or no libpulse): ALSA's own default device
+            pass
+        else:
+            return physical_sink(name), rate
+    return ("portaudio", device.index), None
+
+
 def negotiate_rate(device: OutputDevice, rate_hz: float, channels: int) -> tuple[float, str | None]:
     """``rate_hz`` if the device takes it, else the device's default rate and a note saying so."""
     sd = import_sounddevice()

@@ -61,7 +61,19 @@ class _TimingInfo(C.Structure):
                 ("configured_source_usec", C.c_uint64), ("since_underrun", C.c_int64)]
 
 
+class _ServerInfo(C.Structure):  # the leading fields of pa_server_info
+    _fields_ = [("user_name", C.c_char_p), ("host_name", C.c_char_p), ("server_version", C.c_char_p),
+                ("server_name", C.c_char_p), ("sample_spec", _SampleSpec), ("default_sink_name", C.c_char_p)]
+
+
+class _SinkInfo(C.Structure):  # the leading fields of pa_sink_info
+    _fields_ = [("name", C.c_char_p), ("index", C.c_uint32), ("description", C.c_char_p),
+                ("sample_spec", _SampleSpec)]
+
+
 _NOTIFY = C.CFUNCTYPE(None, _P, _P)
+_SERVER_INFO = C.CFUNCTYPE(None, _P, C.POINTER(_ServerInfo), _P)
+_SINK_INFO = C.CFUNCTYPE(None, _P, C.POINTER(_SinkInfo), C.c_int, _P)
 _SUCCESS = C.CFUNCTYPE(None, _P, C.c_int, _P)
 _REQUEST = C.CFUNCTYPE(None, _P, C.c_size_t, _P)
 
@@ -83,6 +95,8 @@ _PROTOTYPES = [
     ("pa_stream_write", C.c_int, [_P, _P, C.c_size_t, _P, C.c_int64, C.c_int]),
     ("pa_stream_get_timing_info", C.POINTER(_TimingInfo), [_P]),
     ("pa_stream_update_timing_info", _P, [_P, _P, _P]), ("pa_operation_unref", None, [_P]),
+    ("pa_context_get_server_info", _P, [_P, _P, _P]), ("pa_context_get_sink_info_by_name", _P, [_P, C.c_char_p, _P, _P]),
+    ("pa_operation_get_state", C.c_int, [_P]),
 ]
 _lib = None
 _lib_lock = threading.Lock()
@@ -104,6 +118,79 @@ def load():
                 f.restype, f.argtypes = restype, argtypes
             _lib = lib
     return _lib
+
+
+def sink_info(sink: str | None) -> tuple[str, int]:
+    """``(name, rate_hz)`` of the sink ``sink`` names on the PulseAudio server (None or 'default': the server's
+    default sink, as it is now): what a stream on it plays into, whatever name it was given.
+    :class:`DeviceError` if the server or the sink does not answer."""
+    pa = load()
+    loop = pa.pa_threaded_mainloop_new()
+    if not loop or pa.pa_threaded_mainloop_start(loop) < 0:
+        raise DeviceError("libpulse could not start its main loop")
+    found: dict = {}
+
+    def on_state(_c, _u):
+        pa.pa_threaded_mainloop_signal(loop, 0)
+
+    def on_server(_c, info, _u):
+        if info:
+            found["default"] = (info.contents.default_sink_name or b"").decode()
+        found["server_done"] = True
+        pa.pa_threaded_mainloop_signal(loop, 0)
+
+    def on_sink(_c, info, eol, _u):
+        if eol == 0 and info:
+            found["sink"] = (info.contents.name.decode(), int(info.contents.sample_spec.rate))
+        elif eol:
+            found["sink_done"] = True
+            pa.pa_threaded_mainloop_signal(loop, 0)
+
+    callbacks = (_NOTIFY(on_state), _SERVER_INFO(on_server), _SINK_INFO(on_sink))
+    deadline = time.monotonic() + _CONNECT_S
+    context = None
+    pa.pa_threaded_mainloop_lock(loop)
+    try:
+        def wait(done, what):
+            while not done():
+                if time.monotonic() > deadline:
+                    raise DeviceError(f"{what}: no answer in {_CONNECT_S:g} s")
+                pa.pa_threaded_mainloop_unlock(loop)
+                time.sleep(0.001)
+                pa.pa_threaded_mainloop_lock(loop)
+
+        context = pa.pa_context_new(pa.pa_threaded_mainloop_get_api(loop), b"hapticfx-sink-info")
+        pa.pa_context_set_state_callback(context, callbacks[0], None)
+        if pa.pa_context_connect(context, None, _CONTEXT_NOAUTOSPAWN, None) < 0:
+            raise DeviceError("cannot reach a PulseAudio server")
+
+        def ready():
+            state = pa.pa_context_get_state(context)
+            if state in (CONTEXT_FAILED, CONTEXT_TERMINATED):
+                raise DeviceError("cannot reach a PulseAudio server")
+            return state == CONTEXT_READY
+
+        wait(ready, "cannot reach a PulseAudio server")
+        name = sink
+        if sink in (None, "", "default", "@DEFAULT_SINK@"):
+            pa.pa_operation_unref(pa.pa_context_get_server_info(context, callbacks[1], None))
+            wait(lambda: "server_done" in found, "the PulseAudio server did not say its default sink")
+            name = found.get("default")
+            if not name:
+                raise DeviceError("the PulseAudio server has no default sink (`pactl list short sinks`)")
+        pa.pa_operation_unref(pa.pa_context_get_sink_info_by_name(context, name.encode(), callbacks[2], None))
+        wait(lambda: "sink_done" in found, f"the PulseAudio server did not describe sink {name!r}")
+        if "sink" not in found:
+            raise DeviceError(f"cannot play on sink {name!r}: no such sink (`pactl list short sinks` lists the sinks)")
+        return found["sink"]
+    finally:
+        if context:
+            pa.pa_context_disconnect(context)
+            pa.pa_context_unref(context)
+        pa.pa_threaded_mainloop_unlock(loop)
+        pa.pa_threaded_mainloop_stop(loop)
+        pa.pa_threaded_mainloop_free(loop)
+        del callbacks
 
 
 class Playback:

@@ -54,8 +54,14 @@ class Mixer:
         self.rendered_frames = 0
 
     def set_limits(self, channel: int, limits: SafetyLimits) -> None:
-        """Give ``channel`` its actuator's (effective) safety limits; before its first impact."""
-        self._limiters[channel] = SafetyLimiter(limits, self.rate_hz)
+        """Give ``channel`` its actuators' (effective, combined) safety limits; a channel that has a limiter
+        already goes on from its state (what it sent stays in the windows)."""
+        new = SafetyLimiter(limits, self.rate_hz)
+        with self._lock:
+            old = self._limiters[channel]
+            if old is not None:
+                new.restore(old.state())
+            self._limiters[channel] = new
 
     def widen(self, channels: int) -> None:
         """Allow ``channels`` output channels (a later actuator asked for a higher one)."""
@@ -284,3 +290,40 @@ class QueueMixer(Mixer):
             self._clock = self._heard = self._kept = 0
             self._runs.clear()
         return cut
+
+
+class QueueProbe:
+    """A :class:`QueueMixer` on one channel and the audio a server would end up playing from it, for the host's
+    conformance check (:func:`hapticfx.conformance.check_mix_limiter`): the queue refilled in 5 ms requests
+    150 ms ahead, each impact written over it, and every write landing late, after the server read past its
+    start by up to 12.5 ms (the earlier version plays up to there)."""
+
+    def __init__(self, limits: SafetyLimits, rate_hz: float, *, seed: int = 0):
+        self.mixer = QueueMixer(1, rate_hz)
+        self.mixer.set_limits(0, limits)
+        self._request, self._queue = max(1, int(0.005 * rate_hz)), int(0.15 * rate_hz)
+        self._late = max(1, int(0.0125 * rate_hz))
+        self._rng = np.random.default_rng(seed)
+        self._pending: list[tuple[int, np.ndarray]] = []
+
+    def play(self, samples: np.ndarray, at_frame: int) -> None:
+        self._pending.append((int(at_frame), np.asarray(samples, dtype=np.float64)))
+
+    def output(self, frames: int) -> np.ndarray:
+        played = np.zeros(frames + self.mixer._size, dtype=np.float32)
+        pending = sorted(self._pending, key=lambda p: p[0])
+        written = 0
+        while written < frames:
+            at, audio = self.mixer.render(self._request)
+            played[at:at + audio.shape[0]] = audio[:, 0]
+            written = at + audio.shape[0]
+            playing = max(0, written - self._queue)
+            self.mixer.heard(playing)
+            while pending and pending[0][0] <= playing + self._queue // 2:
+                start, x = pending.pop(0)
+                back = self.mixer.add_at(0, x, max(start, playing))
+                if back is not None:
+                    first, audio = back
+                    switch = min(first + audio.shape[0], first + int(self._rng.integers(0, self._late)))
+                    played[switch:first + audio.shape[0]] = audio[switch - first:, 0]
+        return played[:frames]

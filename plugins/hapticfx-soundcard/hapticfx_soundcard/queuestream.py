@@ -35,7 +35,7 @@ import numpy as np
 from hapticfx.errors import DeviceError
 from hapticfx.interfaces import SafetyLimits
 
-from .libpulse import Playback
+from .libpulse import Playback, sink_info
 from .mixer import QueueMixer
 from .shared import SharedStream, Streams
 
@@ -47,19 +47,30 @@ REQUEST_S = 0.005  # the server asks for more audio whenever this much was playe
 SOONEST_S = 0.005
 CHANNELS = 2  # the stream's channels to start with (the paper's two voice-coil actuators); more reopen it
 
-_streams = Streams()  # by sink name ("": the default sink)
+_streams = Streams()  # by the sink they play into
 atexit.register(_streams.shutdown_all)  # libpulse's thread calls into Python: it must go before the interpreter does
 
 
-def acquire(sink: str | None, *, channel: int, rate_hz: float, limits: SafetyLimits, queue_s: float,
+def acquire(sink: str | None, *, channel: int, limits: SafetyLimits, queue_s: float,
             ahead_s: float, max_voices: int, watchdog_s: float) -> "QueueStream":
     """The queue stream on ``sink`` (None: the server's default) with ``channel`` reserved (opened on
-    first use; the first actuator on a sink sets its rate, queue, lead and voice count)."""
+    first use; the first actuator on a sink sets its queue, lead and voice count).
+
+    Streams are kept by the sink they resolve to, so the default sink named ``default`` and by its own
+    name is one stream with one limiter per channel; and a stream runs at the sink's rate, so the server
+    resamples nothing after the limiter (an impact at another rate is resampled before it is mixed)."""
+    name, rate_hz = sink_info(sink)
+
     def make():
-        return QueueStream(sink, rate_hz, queue_s=queue_s, ahead_s=ahead_s, max_voices=max_voices,
+        return QueueStream(name, rate_hz, default=sink is None, queue_s=queue_s, ahead_s=ahead_s, max_voices=max_voices,
                            watchdog_s=watchdog_s)
 
-    return _streams.acquire(sink or "", make, channel=channel, rate_hz=rate_hz, limits=limits)
+    return _streams.acquire(physical_sink(name), make, channel=channel, rate_hz=rate_hz, limits=limits)
+
+
+def physical_sink(name: str) -> tuple[str, str]:
+    """The key of a PulseAudio sink among physical outputs (shared with PortAudio devices that play into it)."""
+    return ("pulse", name)
 
 
 class QueueStream(SharedStream):
@@ -67,11 +78,11 @@ class QueueStream(SharedStream):
     playback, shared by the actuators on its channels and reconnected after an outage."""
 
     def __init__(self, sink: str | None, rate_hz: float, *, queue_s: float, ahead_s: float, max_voices: int,
-                 watchdog_s: float):
+                 watchdog_s: float, default: bool = False):
         if not ahead_s < queue_s:
             raise DeviceError(f"a queue of {queue_s:g} s cannot take impacts {ahead_s:g} s ahead of playback; "
                               "give queue more than ahead")
-        super().__init__(f"PulseAudio sink {sink!r}" if sink else "the PulseAudio default sink",
+        super().__init__(f"PulseAudio sink {sink!r}" if sink and not default else "the PulseAudio default sink",
                          QueueMixer(CHANNELS, rate_hz, max_voices=max_voices), rate_hz, watchdog_s=watchdog_s)
         self.sink = sink
         self.queue_s, self.ahead_s = float(queue_s), float(ahead_s)

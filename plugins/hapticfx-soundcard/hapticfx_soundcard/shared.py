@@ -61,7 +61,8 @@ class SharedStream(ABC):
         self.rate_hz = float(rate_hz)
         self.watchdog_s = watchdog_s
         self.home: Streams | None = None  # the registry that opened it
-        self.users: set[int] = set()
+        self.physical: Hashable = name  # the output it plays into, however it was named (see claim())
+        self.users: dict[int, list[SafetyLimits]] = {}  # channel -> the limits of each actuator on it
         self.underflows = 0
         self.underflow_times: deque[float] = deque(maxlen=1024)  # time.monotonic() of the latest ones
         # (time.monotonic(), gap) of the latest waits for the stream's feeder that were longer than it holds:
@@ -79,23 +80,31 @@ class SharedStream(ABC):
         self._watchdog: threading.Thread | None = None
 
     def reserve(self, channel: int, limits: SafetyLimits) -> None:
-        """Take ``channel`` for an actuator with these limits; opens the stream (again, wider) as needed."""
-        if channel in self.users:
-            raise DeviceError(f"channel {channel} of {self.name} is already used by another actuator")
+        """Take ``channel`` for one more actuator with these limits; opens the stream (again, wider) as needed.
+
+        Several actuators on one channel (two effects, two scenes or engines on one output) share its one
+        limiter, which holds the strictest of their limits on their sum."""
         self._check_channel(channel)
+        claim(self.physical, channel, self)
         self.mixer.widen(channel + 1)
-        self.mixer.set_limits(channel, limits)
-        if self._open_channels() < self.mixer.channels:
-            self._open()
-        self.users.add(channel)  # only once it plays: a refused channel is not held
+        held = self.users.get(channel, [])
+        self.mixer.set_limits(channel, limits.strictest(*held))
+        try:
+            if self._open_channels() < self.mixer.channels:
+                self._open()
+        except DeviceError:
+            if not held:
+                unclaim(self.physical, channel, self)
+            raise
+        self.users[channel] = held + [limits]  # only once it plays: a refused channel is not held
         if self._watchdog is None:
             self._watchdog = threading.Thread(target=self._watch, name=f"hapticfx-soundcard: {self.name}",
                                               daemon=True)
             self._watchdog.start()
 
-    def release(self, channel: int, *, drain_timeout_s: float) -> None:
+    def release(self, channel: int, *, drain_timeout_s: float, limits: SafetyLimits | None = None) -> None:
         """Give ``channel`` back; the last actuator on the output closes the stream after draining it."""
-        self.home.release(self, channel, drain_timeout_s=drain_timeout_s)
+        self.home.release(self, channel, drain_timeout_s=drain_timeout_s, limits=limits)
 
     def _check_channel(self, channel: int) -> None:
         """DeviceError if the output has no such channel."""
@@ -181,6 +190,28 @@ class SharedStream(ABC):
         self.check()
 
 
+_claims: dict[tuple[Hashable, int], SharedStream] = {}  # (physical output, channel) -> the stream playing it
+_claims_lock = threading.Lock()
+
+
+def claim(physical: Hashable, channel: int, stream: SharedStream) -> None:
+    """Record that ``stream`` plays ``channel`` of ``physical``; :class:`DeviceError` if another stream of this
+    process already does: each would limit only its own part of the sum that reaches the actuator."""
+    with _claims_lock:
+        other = _claims.setdefault((physical, channel), stream)
+        if other is not stream and other._stop.is_set():  # a stream shut down since: its claim is void
+            other = _claims[(physical, channel)] = stream
+    if other is not stream:
+        raise DeviceError(f"{stream.name} channel {channel}: {other.name} already plays that output and channel "
+                          "here; each would limit only its own part of the sum: give both the same `queue`")
+
+
+def unclaim(physical: Hashable, channel: int, stream: SharedStream) -> None:
+    with _claims_lock:
+        if _claims.get((physical, channel)) is stream:
+            del _claims[(physical, channel)]
+
+
 class Streams:
     """The running streams, one per output (``key``), each shared by the actuators on its channels."""
 
@@ -190,14 +221,15 @@ class Streams:
 
     def acquire(self, key: Hashable, make: Callable[[], SharedStream], *, channel: int, rate_hz: float,
                 limits: SafetyLimits) -> SharedStream:
-        """The stream of ``key`` with ``channel`` reserved; ``make()`` opens it on first use (the first
-        actuator on an output sets its options)."""
+        """The stream of ``key`` (the physical output it plays into) with ``channel`` reserved; ``make()``
+        opens it on first use (the first actuator on an output sets its options)."""
         with self._lock:
             stream = self._streams.get(key)
             if stream is None:
                 keep_the_gil_moving()
                 stream = self._streams[key] = make()
                 stream.home = self
+                stream.physical = key
             elif stream.rate_hz != rate_hz:
                 raise DeviceError(f"{stream.name} already streams at {stream.rate_hz:g} Hz for another actuator; "
                                   f"give both the same rate_hz")
@@ -210,10 +242,20 @@ class Streams:
                 raise
             return stream
 
-    def release(self, stream: SharedStream, channel: int, *, drain_timeout_s: float) -> None:
+    def release(self, stream: SharedStream, channel: int, *, drain_timeout_s: float,
+                limits: SafetyLimits | None = None) -> None:
         """Give ``channel`` back; the last actuator on an output closes its stream after draining it."""
         with self._lock:
-            stream.users.discard(channel)
+            held = stream.users.get(channel, [])
+            if limits in held:
+                held.remove(limits)
+            elif held:
+                held.pop()
+            if held:
+                stream.mixer.set_limits(channel, held[0].strictest(*held[1:]))
+            else:
+                stream.users.pop(channel, None)
+                unclaim(stream.physical, channel, stream)
             last = not stream.users
             if last:
                 self._streams = {k: s for k, s in self._streams.items() if s is not stream}

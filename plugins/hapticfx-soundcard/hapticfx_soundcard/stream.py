@@ -40,10 +40,10 @@ START_S = 0.25  # an underflow this soon after a stream starts is its start (see
 GROW_WAIT_S = 1.0  # a longer buffer waits this long at most for silence before it is switched in
 GROW_MARGIN = 1.5  # a lengthened buffer holds this many times the longest wait between callbacks
 
-_streams = Streams()  # by PortAudio device index
+_streams = Streams()  # by the physical output they play into (devices.physical_output)
 
 
-def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: SafetyLimits,
+def acquire(device: OutputDevice, physical, *, channel: int, rate_hz: float, limits: SafetyLimits,
             latency: str | float, max_latency: float, blocksize: int, max_voices: int,
             watchdog_s: float) -> "DeviceStream":
     """The running stream of ``device`` with ``channel`` reserved (opened on first use).
@@ -55,7 +55,7 @@ def acquire(device: OutputDevice, *, channel: int, rate_hz: float, limits: Safet
         return DeviceStream(device, rate_hz, latency=latency, max_latency=max_latency, blocksize=blocksize,
                             max_voices=max_voices, watchdog_s=watchdog_s)
 
-    return _streams.acquire(device.index, make, channel=channel, rate_hz=rate_hz, limits=limits)
+    return _streams.acquire(physical, make, channel=channel, rate_hz=rate_hz, limits=limits)
 
 
 def _abort(stream, *, wait_s: float) -> bool:

@@ -163,23 +163,26 @@ def test_unknown_device_is_a_clear_error(soundserver):
         VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(channel=40)).open()
 
 
-def test_a_refused_rate_falls_back_to_the_device_default(soundserver, capsys):
-    act = VibroTransducer(VibroTransducer.Params(queue=0.0, rate_hz=400000), BuildContext())
-    assert act.spec.rate_hz == 400000  # known before the device is touched
+def test_a_device_playing_into_a_pulseaudio_sink_runs_at_the_sinks_rate(soundserver):
+    """ALSA's `default` plays into the server's null sink (48 kHz): the stream runs at the sink's rate, whatever
+    was asked, so the server resamples nothing after the limiter (issue 31, case 5)."""
+    act = VibroTransducer(VibroTransducer.Params(queue=0.0, rate_hz=44100), BuildContext())
+    assert act.spec.rate_hz == 44100  # known before the device is touched
     with act:
-        assert act.spec.rate_hz != 400000
-        assert "does not take 400000 Hz" in act.note
-        act.play(Signal(impact(n=480), 48000.0))  # resampled to the stream rate
+        assert act.spec.rate_hz == 48000 and "runs at 48000 Hz" in act.note
+        act.play(Signal(impact(n=480), 44100.0))  # resampled to the stream rate, then mixed and limited
         act.drain(timeout=2.0)
-    assert "does not take 400000 Hz" in capsys.readouterr().err
 
 
-def test_same_channel_twice_and_mismatched_rates_are_refused(soundserver):
-    with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(channel=0)):
-        with pytest.raises(DeviceError, match="already used"):
-            Haptuator(Haptuator.Params(queue=0.0), BuildContext(channel=0)).open()
-        with pytest.raises(DeviceError, match="already streams at 48000 Hz"):
-            Haptuator(Haptuator.Params(queue=0.0, rate_hz=44100), BuildContext(channel=1)).open()
+def test_one_channel_twice_shares_its_limiter_with_the_strictest_limits(soundserver):
+    """Two actuators on one device and channel (two effects, two engines) play through one stream, whose one
+    limiter on that channel holds the stricter limits of the two (the haptuator's RMS 0.5) on their sum."""
+    with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(channel=0)) as a, \
+            Haptuator(Haptuator.Params(queue=0.0, rate_hz=44100), BuildContext(channel=0)) as b:
+        assert a._stream is b._stream and b.spec.rate_hz == a.spec.rate_hz
+        limiter = a._stream.mixer._limiters[0]
+        assert sorted(c.rms for c in limiter.limits.constraints()) == [0.5, 0.7]
+    assert a.output_key() == b.output_key()
 
 
 def test_play_before_open_is_an_error(soundserver):

@@ -297,12 +297,12 @@ def test_a_pause_of_the_machine_shorter_than_the_queue_leaves_no_gap(soundserver
 
 
 @pytest.mark.soundserver
-def test_auto_takes_the_queue_on_the_default_device_and_portaudio_elsewhere(soundserver):
+def test_auto_takes_the_queue_on_the_default_device_and_its_names(soundserver):
     with VibroTransducer(VibroTransducer.Params(), BuildContext(device="default")) as act:
         assert act.queue_s == 0.15 and act.output_latency_s == 0.01
         assert "a 150 ms queue at the PulseAudio server" in act.describe()
-    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="pulse")) as act:  # a PortAudio device
-        assert act.queue_s == 0.0
+    with VibroTransducer(VibroTransducer.Params(), BuildContext(device="pulse")) as act:  # the same sink
+        assert act.queue_s == 0.15
 
 
 def test_auto_without_a_sound_server_falls_back_to_portaudio_quietly(tmp_path):

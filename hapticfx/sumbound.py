@@ -1,0 +1,68 @@
+"""The host's limit on the sum of overlapping impacts, for an actuator that sums them itself but whose own
+limiter the host does not trust (it declares ``limits_mix`` and failed, or never took, the conformance check).
+
+The host cannot see the sum such an actuator makes, nor exactly when it starts each impact. So it bounds the
+sum whatever their alignment: the peak of a sum is at most the sum of the peaks, and the RMS of a sum over
+any window at most the sum of each one's largest windowed RMS (Minkowski). Each new impact is scaled so that,
+with every impact that may still sound with it, both sums stay within the limits. An impact is taken to
+sound from ``play()`` for its length, give or take ``slack_s`` (a mixer's buffer), and to share windows with
+what ends less than a window before it.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+
+import numpy as np
+
+from .conformance import window_rms
+from .interfaces import SafetyLimits
+from .safety import LimiterReport
+
+SLACK_S = 0.25
+
+
+class SumBound:
+    """Scales impacts so that any sum of those that may overlap stays within ``limits`` (see module doc)."""
+
+    def __init__(self, limits: SafetyLimits, rate_hz: float, *, slack_s: float = SLACK_S):
+        every = limits.constraints()
+        self.limits, self.rate_hz, self.slack_s = limits, float(rate_hz), slack_s
+        self._peak = min(c.peak for c in every)
+        self._rms = sorted({(c.rms, max(1, int(round(c.rms_window_s * self.rate_hz)))) for c in every})
+        self._reach_s = max(w for _, w in self._rms) / self.rate_hz + slack_s
+        self._sounding: deque[tuple[float, float, tuple[float, ...]]] = deque()  # (end_s, peak, rms per window)
+        self._lock = threading.Lock()
+        self._events = 0
+        self._least = 1.0
+
+    def process(self, samples: np.ndarray, *, at_s: float) -> np.ndarray:
+        """``samples`` (1D) played at ``at_s`` (host seconds), scaled so that the bounds hold."""
+        x = np.asarray(samples, dtype=np.float64)
+        peak = float(np.max(np.abs(x))) if x.size else 0.0
+        rms = tuple(float(window_rms(x, win).max()) if x.size else 0.0 for _, win in self._rms)
+        with self._lock:
+            while self._sounding and self._sounding[0][0] + self._reach_s < at_s:
+                self._sounding.popleft()
+            gain = 1.0
+            used_peak = sum(p for _, p, _ in self._sounding)
+            if peak > 0:
+                gain = min(gain, max(0.0, self._peak - used_peak) / peak)
+            for k, (limit, _) in enumerate(self._rms):
+                used = sum(r[k] for _, _, r in self._sounding)
+                if rms[k] > 0:
+                    gain = min(gain, max(0.0, limit - used) / rms[k])
+            if gain < 1.0:
+                self._events += 1
+                self._least = min(self._least, gain)
+            end = at_s + x.size / self.rate_hz
+            self._sounding.append((end, peak * gain, tuple(r * gain for r in rms)))
+            self._sounding = deque(sorted(self._sounding))
+        return x * gain
+
+    def report(self) -> LimiterReport:
+        with self._lock:
+            db = -20 * np.log10(self._least) if self._least > 0 else float("inf")
+            acted = ("sum of overlapping impacts (host bound)",) if self._events else ()
+            return LimiterReport(peak_events=self._events, max_reduction_db=float(db), acted=acted)

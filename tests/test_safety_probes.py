@@ -1,0 +1,129 @@
+"""The safety probe's cases that need no sound server (issue 31): third-party actuators registered at run
+time, effect limits under a scene's actuator, the host's limiter at the rate an actuator agrees to, and the
+held cases (a shared memory output, many threads). What reached the output is measured in its own time:
+every sample against the peak, every 50 ms window against the RMS. The sound-card cases are in
+plugins/hapticfx-soundcard/tests/test_safety_soundcard.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hapticfx.conformance import check_mix_limiter
+from hapticfx.engine import Engine
+from hapticfx.fuzz import probe
+from hapticfx.fuzz.thirdparty import LyingMixer
+from hapticfx.interfaces import SafetyLimits
+from hapticfx.sumbound import SumBound
+from hapticfx.testing import assert_mix_limiter
+
+
+def test_an_actuator_that_declares_limits_mix_and_limits_nothing_gets_the_hosts_bound():
+    """Case 6: it summed overlapping impacts to 5.1 against 0.9 here (22.7 in the issue) before."""
+    v = probe.lying_mixer(150)
+    assert v.held, v
+    assert v.peak > 0.3  # the impacts did come through
+
+
+def test_an_actuator_that_lowers_its_rate_in_open_is_limited_at_that_rate():
+    """Case 6: a limiter left at 48 kHz let 50 ms windows at 8 kHz reach RMS 0.88 against 0.5."""
+    v = probe.rate_dropper(30)
+    assert v.held, v
+    assert v.rms > 0.4 and v.note == "runs at 8000 Hz"
+
+
+@pytest.mark.parametrize("threads", [1, 8])
+def test_a_shared_memory_output_holds_under_a_flood(threads):
+    """Held before and after: impacts of four effects on one memory output, back to back as it keeps them."""
+    v = probe.shared_memory(800, threads=threads)
+    assert v.held, v
+
+
+def test_a_mixer_that_does_not_limit_fails_the_conformance_check_and_one_that_does_passes():
+    class Unlimited:
+        """Sums what it is given, limits nothing."""
+
+        @classmethod
+        def mix_probe(cls, limits, rate_hz):
+            class Probe:
+                out = np.zeros(int(rate_hz * 2))
+
+                def play(self, samples, at_frame):
+                    self.out[at_frame:at_frame + samples.size] += samples
+
+                def output(self, frames):
+                    return self.out[:frames]
+            return Probe()
+
+    class Bounded(Unlimited):
+        """Sums through the host's bound: it holds."""
+
+        @classmethod
+        def mix_probe(cls, limits, rate_hz):
+            inner, bound = Unlimited.mix_probe(limits, rate_hz), SumBound(limits, rate_hz)
+
+            class Probe:
+                def play(self, samples, at_frame):
+                    inner.play(bound.process(samples, at_s=at_frame / rate_hz), at_frame)
+
+                def output(self, frames):
+                    return inner.output(frames)
+            return Probe()
+
+    problems = check_mix_limiter(Unlimited)
+    assert any("over the limit" in p for p in problems) and any("windows" in p for p in problems)
+    assert "has no mix_probe" in check_mix_limiter(LyingMixer)[0]
+    assert_mix_limiter(Bounded)
+    with pytest.raises(AssertionError, match="Unlimited"):
+        assert_mix_limiter(Unlimited, seeds=(0,))
+
+
+def scene(tmp_path, *, scene_limits="", effect_limits="{peak: 0.2}"):
+    path = tmp_path / "scene.yaml"
+    loud = probe.LOUD
+    path.write_text(f"""
+name: routed
+actuators:
+  helmet: {{type: memory, rate_hz: 8000{scene_limits}}}
+effects:
+  brick: {{actuator: helmet, inline: {{name: brick, object: concrete-brick, model: {loud},
+           actuator: {{type: vibro-transducer, limits: {effect_limits}}}}}}}
+  plate: {{actuator: helmet, inline: {{name: plate, object: steel-plate, model: {loud}, actuator: {{type: memory}}}}}}
+engine: {{queue_size: 64}}
+""")
+    return path
+
+
+@pytest.mark.parametrize("scene_limits", ["", ", limits: {peak: 0.5}"])
+def test_an_effects_own_limits_hold_wherever_a_scene_routes_it_and_stats_say_which_acted(tmp_path, scene_limits,
+                                                                                        caplog):
+    """Case 3: an effect with limits {peak: 0.2} routed to a scene's shared actuator played at 0.7955; a scene
+    may lower a limit, never raise it (its peak 0.5 does not lift the effect's 0.2)."""
+    with Engine(scene(tmp_path, scene_limits=scene_limits)) as engine:
+        for _ in range(5):
+            engine.impact("brick", 5.0)
+        stats = engine.close()
+    played = engine._outputs["actuators.helmet"].actuator.played
+    assert max(float(np.abs(s.samples).max()) for s in played) <= 0.2
+    out = stats["outputs"]["actuators.helmet"]
+    assert out["limits"]["peak"] == {"value": 0.2, "set_by": f"effect {tmp_path / 'scene.yaml'} (effects.brick.inline)"}
+    assert any(a.startswith("peak 0.2 set by effect") for a in out["limits_acted"])
+    assert "the safety limit acted: peak 0.2 set by effect" in caplog.text
+
+
+def test_a_scene_lowers_a_limit_for_every_effect_it_routes(tmp_path):
+    with Engine(scene(tmp_path, scene_limits=", limits: {peak: 0.1}", effect_limits="{rms: 0.5}")) as engine:
+        engine.impact("plate", 5.0)
+        stats = engine.close()
+    played = engine._outputs["actuators.helmet"].actuator.played
+    assert float(np.abs(played[0].samples).max()) <= 0.1
+    assert stats["outputs"]["actuators.helmet"]["limits"]["peak"]["set_by"].startswith("scene ")
+
+
+def test_strictest_limits_hold_every_window_of_each():
+    a = SafetyLimits(peak=1.0, rms=0.7, source="a")
+    b = SafetyLimits(peak=0.5, rms=0.9, rms_window_s=0.01, source="b")
+    both = a.strictest(b)
+    assert {(c.rms, c.rms_window_s) for c in both.constraints()} == {(0.7, 0.05), (0.9, 0.01)}
+    assert both.describe()["peak"] == {"value": 0.5, "set_by": "b"}
+    assert a.strictest(a) is a
