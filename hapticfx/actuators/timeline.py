@@ -146,3 +146,35 @@ class Timeline:
                 out[:, k:min(k + BLOCK, b)] = self.limiter.process(x[:, k:min(k + BLOCK, b)],
                                                                    at_s=(first + k) / self.rate_hz)
         return out
+
+
+class _Kept:
+    """A writer that keeps what it is given (for :class:`TimelineProbe`)."""
+
+    frame_bytes, bytes, max_frames = 8, 0, 1 << 40
+
+    def __init__(self):
+        self.blocks: list[np.ndarray] = []
+
+    def write(self, block: np.ndarray) -> None:
+        self.blocks.append(np.array(block))
+
+    def close(self):
+        return None
+
+
+class TimelineProbe:
+    """A :class:`Timeline` on one channel, kept in memory: what a file output's mixer and limiter make of
+    impacts placed at given frames, for the host's conformance check (:mod:`hapticfx.conformance`)."""
+
+    def __init__(self, limits: SafetyLimits, rate_hz: float):
+        self.kept = _Kept()
+        self.rate_hz = float(rate_hz)
+        self.timeline = Timeline(lambda channels: self.kept, rate_hz, limits, max_bytes=1 << 40)
+
+    def play(self, samples: np.ndarray, at_frame: int) -> None:
+        self.timeline.place(np.asarray(samples)[None, :], at_frame / self.rate_hz)
+
+    def output(self, frames: int) -> np.ndarray:
+        self.timeline.close()
+        return np.concatenate([b[0] for b in self.kept.blocks])[:frames] if self.kept.blocks else np.zeros(0)

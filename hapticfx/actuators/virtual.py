@@ -19,7 +19,7 @@ from ..interfaces import Actuator, ActuatorSpec
 from ..params import BuildContext, doc
 from ..signal import Signal
 from .files import DEFAULT_WAV_FORMAT, CsvWriter, WavWriter, check_overwrite
-from .timeline import Timeline
+from .timeline import Timeline, TimelineProbe
 
 
 def _plain_spec(rate_hz: float) -> ActuatorSpec:
@@ -83,6 +83,11 @@ class _FileActuator(Actuator):
 
     limits_mix = True  # it sums what it is given and limits the sum itself
     takes_time = True
+
+    @classmethod
+    def mix_probe(cls, limits, rate_hz: float) -> TimelineProbe:
+        """Its timeline's mixer and limiter without a file, for the host's conformance check."""
+        return TimelineProbe(limits, rate_hz)
 
     def __init__(self, params, context: BuildContext = BuildContext(), *, spec: ActuatorSpec | None = None):
         target = params.path or (context.device if isinstance(context.device, str) else None)
