@@ -21,7 +21,6 @@ import numpy as np
 from ..conformance import window_rms
 from ..engine import Engine
 from ..errors import HapticfxError
-from ..hookspecs import hookimpl  # noqa: F401  (re-exported for probe plugins)
 from ..registry import Registry, create_plugin_manager
 from .thirdparty import HARD, ThirdParty
 
@@ -156,14 +155,11 @@ def shared_memory(n: int = 4000, threads: int = 1) -> Verdict:
 
 
 def refused(case: str, build: Callable[[], object], peak: float, rms: float) -> Verdict:
-    """A case that must be refused with a clear error (nothing plays)."""
+    """A case that must be refused with a clear error (nothing plays); ``build()`` closes what it opened."""
     try:
-        made = build()
+        build()
     except HapticfxError as exc:
-        return Verdict(case, peak, rms, refused=str(exc).splitlines()[0][:160])
-    close = getattr(made, "close", None)
-    if close:
-        close()
+        return Verdict(case, peak, rms, refused=str(exc).splitlines()[0][:300])
     return Verdict(case, peak, rms, samples_over=1, note="was not refused")
 
 

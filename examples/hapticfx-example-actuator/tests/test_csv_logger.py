@@ -38,3 +38,15 @@ def test_missing_directory_is_a_device_error_on_open_not_on_construction(tmp_pat
 
 def test_registered_under_its_type_name():
     assert get_registry().get("actuator", "csv-logger").distribution == "hapticfx-example-actuator"
+
+
+def test_the_host_keeps_the_limit_on_the_sum_unless_a_mixer_passes_its_conformance_check():
+    """The logger does not sum overlapping impacts (``limits_mix`` is False), so the host limits what it gets.
+    An actuator that sums them and declares ``limits_mix = True`` ships this check of its own limiter,
+    ``assert_mix_limiter(ItsClass)``, and the host runs it too before it leaves the sum to it
+    (docs/plugin-guide.md); without a ``mix_probe`` the check fails and the host keeps the limit."""
+    from hapticfx.testing import assert_mix_limiter
+
+    assert not CsvLogger.limits_mix
+    with pytest.raises(AssertionError, match="has no mix_probe"):
+        assert_mix_limiter(CsvLogger)

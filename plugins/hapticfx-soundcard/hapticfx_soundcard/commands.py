@@ -1,8 +1,12 @@
-"""``hapticfx devices``, ``hapticfx bench output`` and ``hapticfx bench helmet``."""
+"""``hapticfx devices``, ``hapticfx bench output``, ``hapticfx bench helmet`` and ``hapticfx bench safety``."""
 
 from __future__ import annotations
 
 import json
+import os
+import platform
+import time
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Optional
 
@@ -325,9 +329,63 @@ def bench_helmet(
         helmet.plot(plot, list(points), cap, title=f"{scene.name}: {object} at {velocity:g} m/s, recorded from a "
                                                    f"{cap.expected_db.shape[1]}-channel null sink")
         typer.echo(f"wrote {plot}")
+def bench_safety(
+    runs: int = typer.Option(5, min=1, max=100, help="times each case is run"),
+    only: str = typer.Option("", help="comma-separated case names to run (default: all; see --list)"),
+    flood_s: float = typer.Option(10.0, min=0.5, max=120.0, help="seconds of the OSC flood into `hapticfx serve`"),
+    list_cases: bool = typer.Option(False, "--list", help="list the cases and exit"),
+) -> None:
+    """Rerun every case of the safety probe (issue 31) and print, per case, the limit that applies, the
+    largest peak and 50 ms RMS that reached the output over all runs, the windows over the limit, and the
+    verdict. Sound-card cases play into the default PulseAudio sink and record its monitor; run them on a
+    null sink (scripts/test.sh starts one), never on a sink with an actuator worn by someone."""
+    from hapticfx.fuzz.probe import CORE_CASES
+
+    from .bench.safety import SOUNDCARD_CASES, osc_flood
+
+    cases = {**SOUNDCARD_CASES, "osc-flood": lambda: osc_flood(flood_s), **CORE_CASES}
+    if list_cases:
+        for name, fn in cases.items():
+            typer.echo(f"{name:24} {(fn.__doc__ or '').strip().splitlines()[0] if fn.__doc__ else ''}")
+        return
+    chosen = [c.strip() for c in only.split(",") if c.strip()] or list(cases)
+    unknown = [c for c in chosen if c not in cases]
+    if unknown:
+        typer.echo(f"unknown case(s): {', '.join(unknown)}; --list shows them", err=True)
+        raise typer.Exit(2)
+    load = os.getloadavg()
+    typer.echo(f"# hapticfx bench safety --runs {runs}: {platform.node()}, {os.cpu_count()} CPUs, "
+               f"{datetime.now(timezone.utc):%Y-%m-%d}, load {load[0]:.1f} {load[1]:.1f} {load[2]:.1f}")
+    typer.echo("| case | limit | max peak | max 50 ms RMS | windows over | verdict |")
+    typer.echo("|---|---|---:|---:|---:|---|")
+    failed = 0
+    for name in chosen:
+        verdicts = []
+        for k in range(runs):
+            typer.echo(f"  {name}: run {k + 1}/{runs}", err=True)
+            started = time.monotonic()
+            verdicts.append(cases[name]())
+            typer.echo(f"    {time.monotonic() - started:.1f} s: {verdicts[-1].note or 'done'}", err=True)
+        v0 = verdicts[0]
+        held = all(v.held for v in verdicts)
+        failed += not held
+        if all(v.refused for v in verdicts):
+            typer.echo(f"| {v0.case} | {v0.limit} | - | - | - | refused {runs}/{runs}: {v0.refused} |")
+            continue
+        over = sum(v.windows_over for v in verdicts)
+        samples = sum(v.samples_over for v in verdicts)
+        verdict = f"held {runs}/{runs}" if held else (
+            f"VIOLATED in {sum(not v.held for v in verdicts)}/{runs} ({samples} samples over the peak)")
+        typer.echo(f"| {v0.case} | {v0.limit} | {max(v.peak for v in verdicts):.4f} | "
+                   f"{max(v.rms for v in verdicts):.4f} | {over} | {verdict} |")
+    typer.echo(f"tolerance: the sink's 16-bit step (1/32768) for the sound-card cases, 1e-6 otherwise; "
+               f"load after: {os.getloadavg()[0]:.1f}")
+    if failed:
+        raise typer.Exit(1)
 
 
 def add_commands(app: typer.Typer, bench: typer.Typer) -> None:
     app.command("devices")(devices)
     bench.command("output")(bench_output)
     bench.command("helmet")(bench_helmet)
+    bench.command("safety")(bench_safety)
