@@ -139,7 +139,7 @@ def _entry(object_id: Any, raw: Any, *, source: str, base_dir: Path, actuators: 
     output = object_id
     if "actuator" in raw:
         name = raw["actuator"]
-        if name not in actuators:
+        if not isinstance(name, str) or name not in actuators:
             raise EffectError(
                 f"unknown actuator {preview(name)}; the scene's actuators: {', '.join(actuators) or 'none'}",
                 source=source, key=f"{key}.actuator",

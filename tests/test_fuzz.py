@@ -1,6 +1,8 @@
 """Fuzzing in the suite: every gate takes a few hundred mutants cleanly; the limiter holds the hard limits.
 
 `hapticfx bench fuzz` runs 100,000 inputs per gate (docs/benchmarks.md); these runs are small enough for CI.
+An input is a hang here after HANG_S, not the benchmark's 1 s: how long an input takes on a busy machine is
+the benchmark's figure (its "slowest" column); the suite catches the inputs that never end.
 """
 
 from __future__ import annotations
@@ -16,10 +18,12 @@ from hapticfx.fuzz.limits import HARD, check_limits, excess
 from hapticfx.fuzz.mutate import mutate
 from hapticfx.fuzz.runner import fuzz_gate
 
+HANG_S = 20.0
+
 
 @pytest.mark.parametrize("name", list(gates()))
 def test_every_gate_refuses_mutants_in_one_short_line(name):
-    r = fuzz_gate(gates()[name], 250, seed=11)
+    r = fuzz_gate(gates()[name], 250, seed=11, time_limit_s=HANG_S)
     assert r.inputs == 250 and (r.tracebacks, r.hangs, r.bad_messages) == (0, 0, 0), r.examples
     assert r.refused > 0 and r.accepted > 0  # both paths ran: the seeds pass, mutants are refused
 
@@ -117,3 +121,60 @@ def test_the_command_reports_counts_and_fails_on_nothing_here():
     assert "| osc " in r.stdout and "| limits " in r.stdout and "0 above a hard limit" in r.stdout
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "fuzz", "nope"], capture_output=True, text=True)
     assert r.returncode == 2 and "unknown or uninstalled gate(s) nope" in r.stderr
+
+
+@pytest.mark.parametrize("name", [name for name, gate in gates().items() if gate.yaml])
+def test_values_of_the_wrong_type_anywhere_are_refused_in_one_short_line(name):
+    """The type-confusion mutator (lists, mappings, null, booleans, numbers where a name is expected, at
+    every key); `hapticfx bench fuzz --mutator types` runs 10,000 per format (docs/benchmarks.md)."""
+    r = fuzz_gate(gates()[name], 100, seed=5, mutator="types", time_limit_s=HANG_S)
+    assert r.inputs == 100 and (r.tracebacks, r.hangs, r.bad_messages) == (0, 0, 0), r.examples
+    assert r.refused > 50 and r.accepted > 0
+
+
+def test_type_confused_mutants_are_reproducible_yaml_with_one_node_changed():
+    import numpy as np
+    import yaml
+
+    from hapticfx.fuzz.confuse import confuse
+    from hapticfx.fuzz.gates import SCENE_SEEDS
+
+    seed = SCENE_SEEDS[0]
+    a = [confuse(seed, np.random.default_rng([2, i])) for i in range(200)]
+    assert a == [confuse(seed, np.random.default_rng([2, i])) for i in range(200)]
+    trees = [yaml.safe_load(x) for x in a]  # valid YAML, every one
+    assert sum(t != yaml.safe_load(seed) for t in trees) >= 190
+    # the confusions the project's byte mutator rarely makes: a list where a name was, a non-string key
+    assert any(isinstance(t, dict) and isinstance(t.get("effects"), dict)
+               and any(isinstance(e, dict) and isinstance(e.get("actuator"), list) for e in t["effects"].values())
+               for t in trees)
+    assert any(isinstance(t, dict) and any(not isinstance(k, str) for k in t) for t in trees)
+
+
+@pytest.mark.parametrize("gate, old, new, expected", [  # found by the type-confusion fuzz: each was a traceback
+    ("scene", b"    actuator: helmet", b"    actuator: [helmet]", "effects.concrete-brick.actuator: unknown actuator"),
+    ("study", b"actuator: vt, factors: {method: physics", b"actuator: {vt: 1}, factors: {method: physics",
+     "stimuli.phys.actuator: unknown actuator"),
+    ("study", b"    stimuli: [phys, phys-hap, real]", b"    stimuli: [[phys], phys-hap, real]", "unknown stimulus"),
+    ("study", b"    pairs: [[phys, real]]", b"    pairs: [[[phys], real]]", "unknown stimulus"),
+    ("study", b"    type: rating", b"    type: [rating]", "expected type rating, matching or similarity"),
+])
+def test_type_confusions_found_by_the_fuzzer(tmp_path, gate, old, new, expected):
+    from hapticfx.errors import HapticfxError
+
+    g = gates()[gate]
+    seed = g.seeds(tmp_path)[0]
+    assert seed.count(old) == 1
+    with pytest.raises(HapticfxError, match=re.escape(expected)) as err:
+        g.run(seed.replace(old, new), tmp_path)
+    assert "\n" not in str(err.value) and len(str(err.value)) < 300
+
+
+def test_the_command_runs_the_type_confusion_mutator_on_the_yaml_gates():
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "fuzz", "--mutator", "types", "scene", "--inputs",
+                        "30"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.startswith("mutator types, seed 0") and "| scene " in r.stdout
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "fuzz", "--mutator", "types", "osc"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "unknown or uninstalled gate(s) osc for --mutator types" in r.stderr

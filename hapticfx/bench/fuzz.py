@@ -13,8 +13,12 @@ from ..timing import table
 
 
 def fuzz(
-    gates: Optional[list[str]] = typer.Argument(None, help="Gates to fuzz (default: all installed): effect, scene, "
-                                                "csv, dataset, checkpoint, osc, serial, at2, limits."),
+    gates: Optional[list[str]] = typer.Argument(None, help="Gates to fuzz (default: all installed; with --mutator "
+                                                "types, the YAML ones): effect, scene, study, csv, dataset, checkpoint, "
+                                                "osc, serial, at2, limits."),
+    mutator: str = typer.Option("bytes", "--mutator", help="bytes: flipped, dropped and inserted bytes and tokens; "
+                                "types: a value of the wrong type (list, mapping, null, boolean, number, name) at any "
+                                "key of a valid YAML file."),
     inputs: int = typer.Option(100_000, "--inputs", min=1, help="Mutated inputs per gate."),
     seed: int = typer.Option(0, "--seed", help="The same seed gives the same inputs."),
     time_limit: float = typer.Option(1.0, "--time-limit", min=0.01, help="Seconds one input may take (else a hang)."),
@@ -29,12 +33,18 @@ def fuzz(
     from ..fuzz.limits import check_limits
     from ..fuzz.runner import fuzz_gate, peak_rss_mb
 
+    from ..fuzz.runner import MUTATORS
+
+    if mutator not in MUTATORS:
+        raise HapticfxError(f"unknown mutator {mutator!r}; choose {' or '.join(MUTATORS)}")
     available = installed()
-    names = gates or [*available, "limits"]
-    unknown = [g for g in names if g not in available and g != "limits"]
+    if mutator == "types":  # a YAML tree to confuse: the YAML formats only, and no limits run
+        available = {name: gate for name, gate in available.items() if gate.yaml}
+    names = gates or [*available, *(["limits"] if mutator == "bytes" else [])]
+    unknown = [g for g in names if g not in available and (g != "limits" or mutator != "bytes")]
     if unknown:
-        raise HapticfxError(f"unknown or uninstalled gate(s) {', '.join(unknown)}; available: "
-                            f"{', '.join([*available, 'limits'])}")
+        raise HapticfxError(f"unknown or uninstalled gate(s) {', '.join(unknown)} for --mutator {mutator}; available: "
+                            f"{', '.join([*available, *(['limits'] if mutator == 'bytes' else [])])}")
     rows, failed, examples = [], 0, []
     for name in names:
         t0 = time.perf_counter()
@@ -50,13 +60,13 @@ def fuzz(
             continue
         with Progress(inputs, name, unit="inputs") as bar:
             r = fuzz_gate(available[name], inputs, seed=seed, time_limit_s=time_limit,
-                          progress=lambda step: bar.update(step))
+                          progress=lambda step: bar.update(step), mutator=mutator)
         rows.append([name, r.inputs, r.accepted, r.refused, r.bad_messages, r.tracebacks, r.hangs,
                      f"longest message {r.longest_message}, slowest {r.slowest_s * 1e3:.0f} ms",
                      f"{time.perf_counter() - t0:.0f}", f"{peak_rss_mb():.0f}"])
         failed += r.failures
         examples += [f"{name}: {kind}: {text}" for kind, text in r.examples.items()]
-    typer.echo(f"seed {seed}, time limit {time_limit:g} s per input")
+    typer.echo(f"mutator {mutator}, seed {seed}, time limit {time_limit:g} s per input")
     typer.echo(table(["gate", "inputs", "accepted", "refused", "bad messages", "tracebacks", "hangs", "notes",
                       "seconds", "peak RSS MiB (process)"], rows))
     for example in examples:

@@ -49,6 +49,50 @@ events:
 engine: {queue_size: 64}
 """,
 )
+# A study of every task type on two actuators; its effect files are written beside it (``_study_seeds``).
+STUDY_SEED = b"""name: fuzz-study
+seed: 7
+actuators:
+  vt: {type: memory, gain: 0.8}
+  hap: {type: memory}
+stimuli:
+  phys: {effect: kinetic.yaml, actuator: vt, factors: {method: physics, object: concrete}}
+  phys-hap: {effect: kinetic.yaml, actuator: hap, factors: {method: physics, object: concrete}}
+  real: {recorded: {dataset: builtin:helmet-drops, object: concrete-brick, reducer: max-min}, actuator: vt,
+         factors: {method: real, object: concrete}}
+  real-wood: {recorded: {object: wood-beam, drop: representative}, actuator: vt, factors: {method: real, object: wood}}
+tasks:
+  - name: realism
+    type: rating
+    stimuli: [phys, phys-hap, real]
+    velocities: [3.13, 3.7]
+    per_trial: sequence
+    order: latin-square
+    practice: 1
+    questions:
+      - {id: realism, text: "How realistic was it?", anchors: [not at all, completely]}
+  - name: match
+    type: matching
+    targets: [phys]
+    comparisons: [real, real-wood]
+    match_by: object
+    velocities: [3.7]
+    question: "Which one matches?"
+  - name: similar
+    type: similarity
+    pairs: [[phys, real]]
+    upper: [[real, real]]
+    lower: [[real, real-wood]]
+    velocities: [3.7, 3.96]
+    repetitions: 2
+    question: {id: similarity, text: "How similar?", anchors: [different, identical]}
+simulate:
+  participants: 2
+  base: 60
+  noise_sd: 10
+  effects:
+    - {when: {method: physics}, question: realism, shift: -5}
+"""
 CSV_HEADER = b"object,velocity_mps,drop,t_s,ax_g,ay_g,az_g\n"
 
 
@@ -94,11 +138,13 @@ SERIAL_SEEDS = (
 
 @dataclass(frozen=True)
 class Gate:
-    """One input format: valid seeds and the entry point that takes it."""
+    """One input format: valid seeds and the entry point that takes it; ``yaml`` when its inputs are YAML
+    documents (the type-confusion mutator applies)."""
 
     name: str
     seeds: Callable[[Path], list[bytes]]
     run: Callable[[bytes, Path], None]
+    yaml: bool = False
 
 
 def _effect(data: bytes, work: Path) -> None:
@@ -115,6 +161,21 @@ def _scene(data: bytes, work: Path) -> None:
     path = work / "scene.yaml"
     path.write_bytes(data)
     load_scene(path)
+
+
+def _study_seeds(work: Path) -> list[bytes]:
+    (work / "kinetic.yaml").write_bytes(EFFECT_SEEDS[0])
+    return [STUDY_SEED]
+
+
+def _study(data: bytes, work: Path) -> None:
+    """What ``hapticfx study check`` does: load the study, then build a participant's schedule."""
+    from ..study.schedule import build_schedule
+    from ..study.spec import load_study
+
+    path = work / "study.yaml"
+    path.write_bytes(data)
+    build_schedule(load_study(path), "P01")
 
 
 def _csv(data: bytes, work: Path) -> None:
@@ -213,8 +274,9 @@ def _installed(module: str) -> bool:
 def gates() -> dict[str, Gate]:
     """Every gate whose code is installed."""
     out = [
-        Gate("effect", lambda w: list(EFFECT_SEEDS), _effect),
-        Gate("scene", lambda w: list(SCENE_SEEDS), _scene),
+        Gate("effect", lambda w: list(EFFECT_SEEDS), _effect, yaml=True),
+        Gate("scene", lambda w: list(SCENE_SEEDS), _scene, yaml=True),
+        Gate("study", _study_seeds, _study, yaml=True),
         Gate("csv", lambda w: [_csv_seed()], _csv),
         Gate("dataset", _dataset_seeds, _dataset),
         Gate("osc", lambda w: list(OSC_SEEDS), _osc_run),

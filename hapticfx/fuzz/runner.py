@@ -21,6 +21,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import HapticfxError
+from .confuse import confuse
 from .gates import Gate
 from .mutate import mutate
 
@@ -56,10 +57,14 @@ class GateResult:
         return self.bad_messages + self.tracebacks + self.hangs
 
 
+MUTATORS: dict[str, Callable[[bytes, np.random.Generator], bytes]] = {"bytes": mutate, "types": confuse}
+
+
 def fuzz_gate(gate: Gate, inputs: int, *, seed: int = 0, time_limit_s: float = 1.0,
-              progress: Callable[[int], None] | None = None) -> GateResult:
-    """Run ``inputs`` mutants of the gate's seeds (input ``i`` is the same for the same ``seed``);
-    ``progress(n)`` is told of every ``n`` more inputs done."""
+              progress: Callable[[int], None] | None = None, mutator: str = "bytes") -> GateResult:
+    """Run ``inputs`` mutants of the gate's seeds made by ``mutator`` (``MUTATORS``; input ``i`` is the
+    same for the same ``seed``); ``progress(n)`` is told of every ``n`` more inputs done."""
+    mutant = MUTATORS[mutator]
     res = GateResult(gate.name)
     previous = signal.signal(signal.SIGALRM, _raise_hang)
     try:
@@ -70,7 +75,7 @@ def fuzz_gate(gate: Gate, inputs: int, *, seed: int = 0, time_limit_s: float = 1
                 return res
             for i in range(inputs):
                 rng = np.random.default_rng([seed, i])
-                data = seeds[i % len(seeds)] if i < len(seeds) else mutate(seeds[int(rng.integers(len(seeds)))], rng)
+                data = seeds[i % len(seeds)] if i < len(seeds) else mutant(seeds[int(rng.integers(len(seeds)))], rng)
                 _one(gate, data, work, res, time_limit_s)
                 if progress and ((i + 1) % 100 == 0 or i + 1 == inputs):
                     progress(100 if (i + 1) % 100 == 0 else (i + 1) % 100)

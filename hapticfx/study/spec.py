@@ -16,7 +16,7 @@ from typing import Any, Literal
 
 from ..effect import Effect, check_effect, effect_from_mapping, load_effect, parse_actuator_section, read_yaml
 from ..atomic import user_path
-from ..errors import EffectError, HapticfxError, StudyError
+from ..errors import EffectError, HapticfxError, StudyError, preview
 from ..params import doc, parse_params
 
 TOP_KEYS = ("name", "description", "seed", "task_order", "actuators", "stimuli", "tasks", "simulate")
@@ -151,30 +151,30 @@ def _fail(message: str, source: str, key: str) -> StudyError:
 
 def _mapping(value, source, key, *, empty_ok=False) -> dict:
     if not isinstance(value, dict) or (not value and not empty_ok):
-        raise _fail(f"expected a {'' if empty_ok else 'non-empty '}mapping, got {value!r}", source, key)
+        raise _fail(f"expected a {'' if empty_ok else 'non-empty '}mapping, got {preview(value)}", source, key)
     return value
 
 
 def _name(value, source, key) -> str:
     if not isinstance(value, str) or not value.strip() or len(value) > 200:
-        raise _fail(f"expected a non-empty name, got {value!r}", source, key)
+        raise _fail(f"expected a non-empty name, got {preview(value)}", source, key)
     return value
 
 
 def _only(raw: dict, allowed: tuple[str, ...], source, key) -> None:
     unknown = [k for k in raw if k not in allowed]
     if unknown:
-        raise _fail(f"unknown key {unknown[0]!r}; allowed: {', '.join(allowed)}", source, key)
+        raise _fail(f"unknown key {preview(unknown[0])}; allowed: {', '.join(allowed)}", source, key)
 
 
 def _names(value, source, key, known: dict, *, what="stimulus") -> tuple[str, ...]:
     if not isinstance(value, list) or not value:
-        raise _fail(f"expected a non-empty list of {what} names, got {value!r}", source, key)
+        raise _fail(f"expected a non-empty list of {what} names, got {preview(value)}", source, key)
     for i, n in enumerate(value):
-        if n not in known:
-            raise _fail(f"unknown {what} {n!r}; the study's stimuli: {', '.join(known)}", source, f"{key}[{i}]")
+        if not isinstance(n, str) or n not in known:
+            raise _fail(f"unknown {what} {preview(n)}; the study's stimuli: {', '.join(known)}", source, f"{key}[{i}]")
     if len(set(value)) != len(value):
-        raise _fail(f"names a stimulus twice: {value!r}", source, key)
+        raise _fail(f"names a stimulus twice: {preview(value)}", source, key)
     return tuple(value)
 
 
@@ -200,8 +200,8 @@ def _stimulus(name, raw, *, source, base_dir, actuators) -> Stimulus:
         raise _fail("give exactly one of 'effect' (an effect file) or 'recorded' (a dataset's recorded drops)", source, key)
     if "actuator" in raw:
         actuator = raw["actuator"]
-        if actuator not in actuators:
-            raise _fail(f"unknown actuator {actuator!r}; the study's actuators: {', '.join(actuators)}", source, f"{key}.actuator")
+        if not isinstance(actuator, str) or actuator not in actuators:
+            raise _fail(f"unknown actuator {preview(actuator)}; the study's actuators: {', '.join(actuators)}", source, f"{key}.actuator")
     elif len(actuators) == 1:
         actuator = next(iter(actuators))
     else:
@@ -209,7 +209,7 @@ def _stimulus(name, raw, *, source, base_dir, actuators) -> Stimulus:
     factors = _mapping(raw.get("factors", {}), source, f"{key}.factors", empty_ok=True)
     for f, level in factors.items():
         if not isinstance(f, str) or not isinstance(level, (str, int, float)) or isinstance(level, bool):
-            raise _fail(f"expected factor: level (a name or number), got {f!r}: {level!r}", source, f"{key}.factors")
+            raise _fail(f"expected factor: level (a name or number), got {preview(f)}: {preview(level)}", source, f"{key}.factors")
     factors = {f: str(level) for f, level in factors.items()}
     drops = None
     try:
@@ -223,7 +223,7 @@ def _stimulus(name, raw, *, source, base_dir, actuators) -> Stimulus:
                 raise _fail("required key 'object' is missing", source, f"{key}.recorded")
             drops = rec.get("drop", "random")
             if drops not in ("random", "representative"):
-                raise _fail(f"expected 'random' or 'representative', got {drops!r}", source, f"{key}.recorded.drop")
+                raise _fail(f"expected 'random' or 'representative', got {preview(drops)}", source, f"{key}.recorded.drop")
             model = {"type": "recorded", **{k: rec[k] for k in ("dataset", "reducer") if k in rec}}
             effect = effect_from_mapping({"name": name, "object": rec["object"], "model": model, "actuator": {"type": "memory"}},
                                          source=source, base_dir=base_dir)
@@ -253,14 +253,14 @@ def recorded_velocities(stimulus: Stimulus) -> tuple[float, ...]:
 
 def _velocities(value, source, key) -> tuple[float, ...]:
     if not isinstance(value, list) or not value:
-        raise _fail(f"expected a non-empty list of impact velocities (m/s), got {value!r}", source, key)
+        raise _fail(f"expected a non-empty list of impact velocities (m/s), got {preview(value)}", source, key)
     out = []
     for i, v in enumerate(value):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= 100:
-            raise _fail(f"expected a velocity in (0, 100] m/s, got {v!r}", source, f"{key}[{i}]")
+            raise _fail(f"expected a velocity in (0, 100] m/s, got {preview(v)}", source, f"{key}[{i}]")
         out.append(float(v))
     if len(set(out)) != len(out):
-        raise _fail(f"lists a velocity twice: {value!r}", source, key)
+        raise _fail(f"lists a velocity twice: {preview(value)}", source, key)
     return tuple(out)
 
 
@@ -278,37 +278,37 @@ def _question(raw, source, key, *, default_id: str) -> Question:
         r = raw["range"]
         if (not isinstance(r, list) or len(r) != 2 or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in r)
                 or not r[0] < r[1]):
-            raise _fail(f"expected [low, high] with low < high, got {r!r}", source, f"{key}.range")
+            raise _fail(f"expected [low, high] with low < high, got {preview(r)}", source, f"{key}.range")
         low, high = float(r[0]), float(r[1])
     anchors = raw.get("anchors", [])
     if isinstance(anchors, list):
         if len(anchors) not in (0, 2) or not all(isinstance(a, str) for a in anchors):
-            raise _fail(f"expected [label at low, label at high] or a mapping point: label, got {anchors!r}", source,
+            raise _fail(f"expected [label at low, label at high] or a mapping point: label, got {preview(anchors)}", source,
                         f"{key}.anchors")
         anchors = dict(zip((low, high), anchors))
     elif not isinstance(anchors, dict):
-        raise _fail(f"expected a list or a mapping point: label, got {anchors!r}", source, f"{key}.anchors")
+        raise _fail(f"expected a list or a mapping point: label, got {preview(anchors)}", source, f"{key}.anchors")
     points = []
     for point, label in anchors.items():
         if isinstance(point, bool) or not isinstance(point, (int, float)) or not low <= point <= high or not isinstance(label, str):
-            raise _fail(f"expected a point in [{low:g}, {high:g}] and a label, got {point!r}: {label!r}", source, f"{key}.anchors")
+            raise _fail(f"expected a point in [{low:g}, {high:g}] and a label, got {preview(point)}: {preview(label)}", source, f"{key}.anchors")
         points.append((float(point), label))
     return Question(qid, text, tuple(sorted(points)), low, high)
 
 
 def _pairs(value, source, key, stimuli, role) -> dict[str, tuple[str, str]]:
     if not isinstance(value, list) or (not value and role == "test"):
-        raise _fail(f"expected a list of [stimulus, stimulus] pairs, got {value!r}", source, key)
+        raise _fail(f"expected a list of [stimulus, stimulus] pairs, got {preview(value)}", source, key)
     out = {}
     for i, pair in enumerate(value):
         if not isinstance(pair, list) or len(pair) != 2:
-            raise _fail(f"expected [stimulus, stimulus], got {pair!r}", source, f"{key}[{i}]")
+            raise _fail(f"expected [stimulus, stimulus], got {preview(pair)}", source, f"{key}[{i}]")
         for j, n in enumerate(pair):
-            if n not in stimuli:
-                raise _fail(f"unknown stimulus {n!r}; the study's stimuli: {', '.join(stimuli)}", source, f"{key}[{i}][{j}]")
+            if not isinstance(n, str) or n not in stimuli:
+                raise _fail(f"unknown stimulus {preview(n)}; the study's stimuli: {', '.join(stimuli)}", source, f"{key}[{i}][{j}]")
         label = f"{pair[0]}|{pair[1]}"
         if label in out:
-            raise _fail(f"pair {pair!r} is listed twice", source, f"{key}[{i}]")
+            raise _fail(f"pair {preview(pair)} is listed twice", source, f"{key}[{i}]")
         out[label] = (pair[0], pair[1])
     return out
 
@@ -317,13 +317,13 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
     key = f"tasks[{i}]"
     raw = _mapping(raw, source, key)
     kind = raw.get("type")
-    if kind not in LIST_KEYS:
-        raise _fail(f"expected type rating, matching or similarity, got {kind!r}", source, f"{key}.type")
+    if not isinstance(kind, str) or kind not in LIST_KEYS:
+        raise _fail(f"expected type rating, matching or similarity, got {preview(kind)}", source, f"{key}.type")
     allowed = COMMON_KEYS + LIST_KEYS[kind] + tuple(f.name for f in dataclasses.fields(TaskOptions))
     _only(raw, allowed, source, key)
     name = _name(raw.get("name"), source, f"{key}.name")
     if name in seen:
-        raise _fail(f"another task is named {name!r}", source, f"{key}.name")
+        raise _fail(f"another task is named {preview(name)}", source, f"{key}.name")
     seen.add(name)
     if "velocities" not in raw:
         raise _fail("required key 'velocities' is missing", source, key)
@@ -332,13 +332,13 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
                            source=source, key=key)
     for needed in LIST_KEYS[kind]:
         if needed not in raw and needed not in ("upper", "lower"):
-            raise _fail(f"required key {needed!r} is missing", source, key)
+            raise _fail(f"required key {preview(needed)} is missing", source, key)
     match_by, roles = None, {}
     if kind == "rating":
         cells = {n: (n,) for n in _names(raw["stimuli"], source, f"{key}.stimuli", stimuli)}
         qs = raw["questions"]
         if not isinstance(qs, list) or not qs:
-            raise _fail(f"expected a non-empty list of questions, got {qs!r}", source, f"{key}.questions")
+            raise _fail(f"expected a non-empty list of questions, got {preview(qs)}", source, f"{key}.questions")
         questions = tuple(_question(q, source, f"{key}.questions[{j}]", default_id=name if len(qs) == 1 else f"q{j + 1}")
                           for j, q in enumerate(qs))
         if len({q.id for q in questions}) != len(questions):
@@ -351,11 +351,11 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
         match_by = _name(raw["match_by"], source, f"{key}.match_by")
         for n in targets + comparisons:
             if match_by not in stimuli[n].factors:
-                raise _fail(f"stimulus {n!r} has no factor {match_by!r} (stimuli.{n}.factors)", source, f"{key}.match_by")
+                raise _fail(f"stimulus {preview(n)} has no factor {preview(match_by)} (stimuli.{n}.factors)", source, f"{key}.match_by")
         for t in targets:
             hits = [c for c in comparisons if stimuli[c].factors[match_by] == stimuli[t].factors[match_by]]
             if len(hits) != 1:
-                raise _fail(f"target {t!r} must match exactly one comparison by {match_by!r}, matches {hits or 'none'}",
+                raise _fail(f"target {preview(t)} must match exactly one comparison by {preview(match_by)}, matches {hits or 'none'}",
                             source, f"{key}.targets")
         cells = {t: (t, *comparisons) for t in targets}
         questions = (_question(raw["question"], source, f"{key}.question", default_id=name),)
@@ -366,7 +366,7 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
                            f"{key}.{'pairs' if role == 'test' else role}", stimuli, role)
             for label in pairs:
                 if label in cells:
-                    raise _fail(f"pair {label!r} is listed twice", source, key)
+                    raise _fail(f"pair {preview(label)} is listed twice", source, key)
                 roles[label] = role
             cells.update(pairs)
         questions = (_question(raw["question"], source, f"{key}.question", default_id=name),)
@@ -376,7 +376,7 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
             have = recorded_velocities(stimuli[s])
             missing = [v for v in velocities if v not in have]
             if missing:
-                raise _fail(f"recorded stimulus {s!r} has no drops at {', '.join(f'{v:g}' for v in missing)} m/s; "
+                raise _fail(f"recorded stimulus {preview(s)} has no drops at {', '.join(f'{v:g}' for v in missing)} m/s; "
                             f"recorded: {', '.join(f'{v:g}' for v in have)}", source, f"{key}.velocities")
     return Task(name, kind, velocities, options, cells, questions, match_by, roles)
 
@@ -385,7 +385,7 @@ def _simulation(raw, source) -> Simulation:
     raw = dict(_mapping(raw, source, "simulate", empty_ok=True))
     effects = raw.pop("effects", [])
     if not isinstance(effects, list):
-        raise _fail(f"expected a list of effects, got {effects!r}", source, "simulate.effects")
+        raise _fail(f"expected a list of effects, got {preview(effects)}", source, "simulate.effects")
     parsed = []
     for i, e in enumerate(effects):
         k = f"simulate.effects[{i}]"
@@ -393,7 +393,7 @@ def _simulation(raw, source) -> Simulation:
         _only(e, ("shift", "when", "task", "question"), source, k)
         shift = e.get("shift")
         if isinstance(shift, bool) or not isinstance(shift, (int, float)) or not math.isfinite(shift):
-            raise _fail(f"expected a number of scale points, got {shift!r}", source, f"{k}.shift")
+            raise _fail(f"expected a number of scale points, got {preview(shift)}", source, f"{k}.shift")
         when = _mapping(e.get("when", {}), source, f"{k}.when", empty_ok=True)
         parsed.append(SimulatedEffect(float(shift), {str(f): str(v) for f, v in when.items()},
                                       e.get("task"), e.get("question")))
@@ -409,24 +409,24 @@ def study_from_mapping(data: Any, *, source: str, base_dir: Path, sha256: str = 
     _only(data, TOP_KEYS, source, "(top level)")
     for required in ("name", "actuators", "stimuli", "tasks"):
         if required not in data:
-            raise _fail(f"required key {required!r} is missing", source, "(top level)")
+            raise _fail(f"required key {preview(required)} is missing", source, "(top level)")
     name = _name(data["name"], source, "name")
     description = data.get("description", "")
     if not isinstance(description, str):
-        raise _fail(f"expected a string, got {description!r}", source, "description")
+        raise _fail(f"expected a string, got {preview(description)}", source, "description")
     seed = data.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise _fail(f"expected an integer >= 0, got {seed!r}", source, "seed")
+        raise _fail(f"expected an integer >= 0, got {preview(seed)}", source, "seed")
     task_order = data.get("task_order", "fixed")
     if task_order not in ("fixed", "latin-square"):
-        raise _fail(f"expected 'fixed' or 'latin-square', got {task_order!r}", source, "task_order")
+        raise _fail(f"expected 'fixed' or 'latin-square', got {preview(task_order)}", source, "task_order")
     actuators = {str(n): parse_actuator_section(a, source=source, key=f"actuators.{n}")
                  for n, a in _mapping(data["actuators"], source, "actuators").items()}
     stimuli = {n: _stimulus(n, raw, source=source, base_dir=base_dir, actuators=actuators)
                for n, raw in _mapping(data["stimuli"], source, "stimuli").items()}
     raw_tasks = data["tasks"]
     if not isinstance(raw_tasks, list) or not raw_tasks:
-        raise _fail(f"expected a non-empty list of tasks, got {raw_tasks!r}", source, "tasks")
+        raise _fail(f"expected a non-empty list of tasks, got {preview(raw_tasks)}", source, "tasks")
     seen: set = set()
     tasks = tuple(_task(i, t, source=source, stimuli=stimuli, seen=seen) for i, t in enumerate(raw_tasks))
     simulate = _simulation(data.get("simulate", {}), source)
