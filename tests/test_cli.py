@@ -177,3 +177,34 @@ def test_the_python_wave_module_reads_what_render_writes(tmp_path):
     assert r.returncode == 0, r.stderr
     with wave.open(str(tmp_path / "brick.wav")) as w:
         assert (w.getframerate(), w.getsampwidth(), w.getnchannels()) == (48000, 3, 1) and w.getnframes() == 24000
+
+
+def test_validate_checks_scenes_and_studies_as_serve_and_study_run_load_them(tmp_path):
+    files = [REPO / "scenes" / "earthquake_room.yaml", REPO / "studies" / "paper_study2.yaml",
+             REPO / "effects" / "falling_brick.yaml"]
+    r = hfx("validate", *files)
+    assert r.returncode == 0, r.stderr
+    assert [line.split(" (")[1].split()[0] for line in r.stdout.splitlines()] == ["scene", "study", "effect"]
+    listed = json.loads(hfx("validate", *files, "--json").stdout)
+    assert [(x["kind"], x["ok"]) for x in listed] == [("scene", True), ("study", True), ("effect", True)]
+    # an object that names its actuator as a list: one line, exit 2, from validate and from serve alike
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"name: x\nactuators:\n  helmet: {{type: memory}}\neffects:\n"
+                     f"  concrete-brick: {{effect: {REPO / 'effects' / 'falling_brick.yaml'}, actuator: [helmet]}}\n")
+    for args in (("validate", scene), ("serve", scene, "--port", "0")):
+        r = hfx(*args)
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        assert r.stderr.strip().splitlines() == [
+            f"hapticfx: error: {scene}: effects.concrete-brick.actuator: unknown actuator ['helmet']; "
+            "the scene's actuators: helmet"]
+    bad = json.loads(hfx("validate", scene, "--json").stdout)
+    assert bad[0]["ok"] is False and "unknown actuator ['helmet']" in bad[0]["error"]
+
+
+def test_plugins_and_study_check_print_json():
+    listed = json.loads(hfx("plugins", "--json").stdout)
+    assert {"kind": "model", "name": "kinetic-energy", "plugin": "hapticfx.builtins.core", "distribution": "hapticfx"}.items() \
+        <= next(x for x in listed if x["name"] == "kinetic-energy").items()
+    check = json.loads(hfx("study", "check", REPO / "studies" / "paper_study2.yaml", "--json", "--trials").stdout)
+    assert check["study"] == "paper-study-2-matching-similarity" and len(check["tasks"]) == 6
+    assert sum(t["trials"] + t["practice"] for t in check["tasks"]) == len(check["schedule"])

@@ -123,25 +123,71 @@ def render(
     typer.echo(_summary(pipeline, delivery, ", ".join(map(str, written))))
 
 
-def validate(files: list[Path] = typer.Argument(..., help="Effect files or haptic files to check.")):
-    """Check effect files (or haptic files: .haptic, .ahap, ...) as `play` would, short of opening the device: keys, types, ranges, plugins and their
-    parameters, the dataset, object, reducer, interpolator and its options, weights or tables, and the limits
-    against the actuator's hard limits. Exit 2 if any fails."""
+def _yaml_kind(file: Path) -> str:
+    """'scene', 'study' or 'effect': what a file holds, by its top-level keys (a haptic file is an effect)."""
+    from ..effect import read_yaml
+
+    if file.suffix.lower() not in (".yaml", ".yml"):
+        return "effect"
+    data = read_yaml(file)
+    if isinstance(data, dict) and "model" not in data:
+        if "tasks" in data or "stimuli" in data:
+            return "study"
+        if "effects" in data or "actuators" in data:
+            return "scene"
+    return "effect"
+
+
+def _validate_one(file: Path) -> tuple[str, str]:
+    """Load ``file`` as the command that takes it would, short of opening a device: (kind, summary)."""
     from ..interfaces import Impact
     from ..pipeline import Pipeline
 
-    failed = 0
+    kind = _yaml_kind(file)
+    if kind == "scene":  # as `serve` and hapticfx.Engine load it: every entry's pipeline built
+        from ..scene import load_scene
+
+        scene = load_scene(file)
+        for entry in scene.entries.values():
+            Pipeline(entry.effect)
+        outputs = len({entry.output for entry in scene.entries.values()})
+        return kind, f"scene {scene.name!r}: {len(scene.entries)} objects on {outputs} output(s)"
+    if kind == "study":  # as `study check`: the study, its effects and a participant's schedule
+        from ..study.schedule import build_schedule
+        from ..study.spec import load_study
+
+        study = load_study(file)
+        build_schedule(study, "P01")
+        return kind, f"study {study.name!r}: {len(study.stimuli)} stimuli, {len(study.tasks)} tasks"
+    pipeline = Pipeline.from_effect(file)
+    e = pipeline.effect
+    for note in pipeline.model.notes(Impact(e.object_id, e.velocity_mps)):  # a haptic file's legacy form, say
+        typer.echo(f"hapticfx: warning: {note}", err=True)
+    return kind, f"effect {e.name!r}: model {e.model.type}, actuator {e.actuator.type}"
+
+
+def validate(
+    files: list[Path] = typer.Argument(..., help="Effect, scene or study files, or haptic files, to check."),
+    as_json: bool = typer.Option(False, "--json", help=JSON_HELP),
+):
+    """Check effect files (or haptic files: .haptic, .ahap, ...), scenes and studies as `play`, `serve` and
+    `study run` would load them, short of opening a device: keys, types, ranges, plugins and their parameters,
+    the dataset, object, reducer, interpolator and its options, weights or tables, and the limits against the
+    actuator's hard limits. A YAML file is a scene when it has `effects` or `actuators` and no `model`, a
+    study when it has `tasks` or `stimuli`. Exit 2 if any fails."""
+    results = []
     for file in files:
         try:
-            pipeline = Pipeline.from_effect(file)
-            e = pipeline.effect
-            for note in pipeline.model.notes(Impact(e.object_id, e.velocity_mps)):  # a haptic file's legacy form, say
-                typer.echo(f"hapticfx: warning: {note}", err=True)
-            typer.echo(f"ok: {file} (effect {e.name!r}: model {e.model.type}, actuator {e.actuator.type})")
+            kind, summary = _validate_one(file)
+            results.append({"file": str(file), "ok": True, "kind": kind, "summary": summary})
+            if not as_json:
+                typer.echo(f"ok: {file} ({summary})")
         except HapticfxError as exc:
-            failed += 1
+            results.append({"file": str(file), "ok": False, "error": str(exc)})
             typer.echo(f"hapticfx: error: {exc}", err=True)
-    if failed:
+    if as_json:
+        typer.echo(json.dumps(results, indent=2))
+    if not all(r["ok"] for r in results):
         raise typer.Exit(2)
 
 
@@ -157,7 +203,7 @@ def info(
     show(pipeline.describe(), as_json=as_json)
 
 
-def plugins():
+def plugins(as_json: bool = typer.Option(False, "--json", help=JSON_HELP)):
     """List installed plugins and what each registers (name, kind, distribution, version)."""
     from ..registry import get_registry
 
@@ -166,6 +212,10 @@ def plugins():
     used = {r[2] for r in rows}
     rows += [("-", "-", p.name, p.distribution, p.version) for p in reg.plugins.values() if p.name not in used]
     header = ("kind", "name", "plugin", "distribution", "version")
+    if as_json:  # a plugin that registers nothing has kind and name null
+        typer.echo(json.dumps([{k: (None if v == "-" and k in ("kind", "name") else v) for k, v in zip(header, row)}
+                               for row in rows], indent=2))
+        return
     widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
     for row in (header, *rows):
         typer.echo("  ".join(str(x).ljust(w) for x, w in zip(row, widths)).rstrip())

@@ -109,6 +109,7 @@ def check(
     study: Path = typer.Argument(..., help="Study file (YAML)."),
     participant: str = typer.Option("P01", "--participant", "-p", help="Whose schedule to show."),
     trials: bool = typer.Option(False, "--trials", help="List every trial of the schedule."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON (for programs) instead of the summary."),
 ):
     """Validate a study file and summarise one participant's schedule (exit 2 if the file is wrong)."""
     from .schedule import build_schedule
@@ -116,6 +117,9 @@ def check(
 
     spec = load_study(study)
     schedule = build_schedule(spec, participant)
+    if as_json:
+        _check_json(study, spec, participant, schedule, trials)
+        return
     typer.echo(f"ok: {study} (study {spec.name!r}: {len(spec.stimuli)} stimuli, {len(spec.tasks)} tasks)")
     for task in spec.tasks:
         mine = [t for t in schedule if t.task == task.name]
@@ -128,6 +132,25 @@ def check(
             slots = ", ".join(f"{s.name}={s.stimulus}@{'/'.join(f'{v:g}' for v in s.velocities)}" for s in t.slots)
             typer.echo(f"  {t.index:4d} {t.task} {'practice ' if t.practice else ''}{slots}"
                        + (f" (correct {t.correct})" if t.correct else ""))
+
+
+def _check_json(path: Path, spec, participant: str, schedule, trials: bool) -> None:
+    import json
+
+    tasks = []
+    for task in spec.tasks:
+        mine = [t for t in schedule if t.task == task.name]
+        practice = sum(t.practice for t in mine)
+        tasks.append({"name": task.name, "type": task.type, "conditions": len(task.cells),
+                      "trials": len(mine) - practice, "practice": practice,
+                      "impacts": sum(len(s.velocities) for t in mine for s in t.slots), "order": task.options.order})
+    out = {"file": str(path), "study": spec.name, "stimuli": len(spec.stimuli), "participant": participant,
+           "tasks": tasks}
+    if trials:
+        out["schedule"] = [{"index": t.index, "task": t.task, "practice": bool(t.practice), "correct": t.correct or None,
+                            "slots": [{"name": s.name, "stimulus": s.stimulus, "velocities": list(s.velocities)}
+                                      for s in t.slots]} for t in schedule]
+    typer.echo(json.dumps(out, indent=2))
 
 
 def analyze(

@@ -16,11 +16,17 @@ from hapticfx.errors import SignalError
 from hapticfx.progress import Progress, say
 
 
-def devices():
+def devices(as_json: bool = typer.Option(False, "--json", help="Print JSON (for programs) instead of the table.")):
     """List the sound output devices (index, name, host API, channels, default rate)."""
+    import dataclasses
+    import json
+
     from .devices import output_devices
 
     found = output_devices()
+    if as_json:
+        typer.echo(json.dumps([dataclasses.asdict(d) for d in found], indent=2))
+        return
     if not found:
         typer.echo("no sound output devices (no sound card and no sound server; see docs/soundcard.md)")
         return

@@ -48,6 +48,10 @@ def test_devices_command_lists_the_null_sink(soundserver):
     result = CliRunner().invoke(build_app(), ["devices"])
     assert result.exit_code == 0, result.output
     assert "pulse" in result.output and "default" in result.output
+    import json
+
+    listed = json.loads(CliRunner().invoke(build_app(), ["devices", "--json"]).output)
+    assert {"pulse", "default"} <= {d["name"] for d in listed} and sum(d["is_default"] for d in listed) == 1
 
 
 @pytest.mark.soundserver
