@@ -201,6 +201,18 @@ def test_validate_checks_scenes_and_studies_as_serve_and_study_run_load_them(tmp
     assert bad[0]["ok"] is False and "unknown actuator ['helmet']" in bad[0]["error"]
 
 
+def test_render_replaces_the_csv_it_wrote_and_not_another(tmp_path, write_effect):
+    effect, out = write_effect(KE % "memory"), tmp_path / "t.csv"
+    for _ in range(2):
+        r = hfx("render", effect, "--out", out)
+        assert r.returncode == 0, r.stderr
+    mine = tmp_path / "mine.csv"
+    mine.write_text("a,b\n1,2\n")
+    r = hfx("render", effect, "--out", mine)
+    assert r.returncode == 2 and "exists and was not written by hapticfx; use --force" in r.stderr
+    assert mine.read_text() == "a,b\n1,2\n"
+
+
 def test_plugins_and_study_check_print_json():
     listed = json.loads(hfx("plugins", "--json").stdout)
     assert {"kind": "model", "name": "kinetic-energy", "plugin": "hapticfx.builtins.core", "distribution": "hapticfx"}.items() \

@@ -23,12 +23,12 @@ def _device(value: Optional[str]):
     return int(value) if value.strip().isdigit() else value
 
 
-FORCE_HELP = "Replace an output file that hapticfx did not write (its own WAV and PNG files are replaced anyway)."
+FORCE_HELP = "Replace an output file that hapticfx did not write (its own WAV, PNG and CSV files are replaced anyway)."
 
 
 def _write_outputs(pipeline, delivery, out: Path, *, force: bool) -> list[Path]:
     """Write a delivery to ``out`` by its suffix (.wav, .csv, .png); returns what was written."""
-    from ..actuators.files import check_overwrite, write_csv, write_wav
+    from ..actuators.files import CSV_HEADERS, check_overwrite, write_csv, write_wav
     from .figures import impact_png
 
     check_overwrite(out, force=force)
@@ -37,8 +37,9 @@ def _write_outputs(pipeline, delivery, out: Path, *, force: bool) -> list[Path]:
         return [write_wav(out, delivery.output.samples, delivery.output.rate_hz)]
     if suffix == ".csv":
         units = getattr(pipeline.model, "units", "g")
-        column = "profile_g" if units == "g" else "profile_fraction"
-        return [write_csv(out, {"t_s": delivery.profile.times(), column: delivery.profile.samples})]
+        header = CSV_HEADERS[0] if units == "g" else CSV_HEADERS[1]
+        time_column, column = header.split(",")
+        return [write_csv(out, {time_column: delivery.profile.times(), column: delivery.profile.samples})]
     if suffix == ".png":
         return [impact_png(out, delivery, title=pipeline.effect.name, profile_units=getattr(pipeline.model, "units", "g"),
                            volts_peak=pipeline.actuator.spec.volts_peak)]
