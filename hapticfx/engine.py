@@ -16,9 +16,10 @@ impact and not used for scheduling: an impact plays as soon as its worker
 reaches it. The safety limiters run on the engine's own monotonic clock, so a
 sender cannot space out its timestamps to defeat a duty-cycle limit. A file
 output (``takes_time``) places each impact at its time on the session's
-timeline instead: its arrival since the engine started, or, when it carries
-``at``, that time, shifted once so that the first impact with an ``at`` lies
-where it arrived; the file limits the sum in its own time.
+timeline instead: its arrival, or, when it carries ``at``, that time, shifted
+once so that the first impact with an ``at`` lies where it arrived; the
+session's first impact (on any output) is at 0, so the files of one engine
+line up. The file limits the sum in its own time.
 """
 
 from __future__ import annotations
@@ -226,6 +227,7 @@ class Engine:
         self._t0 = time.monotonic()
         self._t0_received = time.perf_counter()  # the session's start, on the clock arrivals are stamped with
         self._at_origin: float | None = None  # sender time - session time, from the first impact with an ``at``
+        self._first_s: float | None = None  # the first impact's time: 0 on the files' timeline
         self._open_outputs()
         for out in self._outputs.values():
             out.worker = threading.Thread(target=self._run, args=(out,), name=f"hapticfx-engine:{out.name}", daemon=True)
@@ -340,11 +342,13 @@ class Engine:
         with self._lock:
             if self._closed:  # checked under the lock: nothing is queued once close() began
                 raise HapticfxError("the engine is closed")
-            job.timeline_s = received - self._t0_received
-            if at is not None:
-                if self._at_origin is None:
-                    self._at_origin = at - job.timeline_s
-                job.timeline_s = at - self._at_origin
+            arrived = received - self._t0_received
+            if at is not None and self._at_origin is None:
+                self._at_origin = at - arrived
+            t = arrived if at is None else at - self._at_origin
+            if self._first_s is None:
+                self._first_s = t
+            job.timeline_s = t - self._first_s
             try:
                 out.queue.put_nowait(job)
             except queue.Full:

@@ -358,8 +358,9 @@ class Actuator(abc.ABC):
     # counts the impact's latency from then, so that the time spent rendering it does not add to it (a sound
     # card's queue at the server): an engine then passes it.
     takes_received: ClassVar[bool] = False
-    # True when ``play`` takes ``at_s=``, the impact's time on the session's timeline in seconds (the sender's
-    # time when it gave one, else its arrival), and places the impact there (a file): an engine then passes it.
+    # True when ``play`` takes ``at_s=``, the impact's time in seconds since the session's first impact (the
+    # sender's time when it gave one, else its arrival), and places the impact there (a file): an engine then
+    # passes it.
     takes_time: ClassVar[bool] = False
 
     def open(self) -> None:

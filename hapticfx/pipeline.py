@@ -102,6 +102,7 @@ class Pipeline:
         self._lock = threading.Lock()
         self._opened = False
         self._t0 = time.monotonic()
+        self._first_s: float | None = None  # the first impact's time, 0 in a file
 
     @classmethod
     def from_effect(cls, effect: str | Path | Effect, *, device: str | int | None = None,
@@ -169,8 +170,11 @@ class Pipeline:
         if not self._opened:
             raise DeviceError("the pipeline is not open: use `with pipeline:` or call open() first")
         delivery = self.render(velocity=velocity, object=object)
-        if self.actuator.takes_time:  # a file: the impact at its time since the pipeline was made
-            self.actuator.play(delivery.output, at_s=delivery.impact.time_s)
+        if self.actuator.takes_time:  # a file: the impact at its time after the first impact
+            with self._lock:
+                if self._first_s is None:
+                    self._first_s = delivery.impact.time_s
+            self.actuator.play(delivery.output, at_s=delivery.impact.time_s - self._first_s)
         else:
             self.actuator.play(delivery.output)
         return delivery

@@ -154,6 +154,29 @@ def test_a_flood_of_overlapping_impacts_holds_the_limits_in_the_files_time(tmp_p
     assert x.size / rate == pytest.approx(0.598 + longest, abs=1e-3)  # back to back it was 300 x longest
 
 
+def test_the_files_of_one_session_line_up(tmp_path):
+    """Two outputs, two files: both start at the session's first impact, so each impact lies at its time."""
+    scene = tmp_path / "two.yaml"
+    scene.write_text(f"""
+name: two
+effects:
+  concrete-brick:
+    inline: {{name: brick, object: concrete-brick, model: {{type: kinetic-energy}},
+             actuator: {{type: wav, path: {tmp_path / 'brick.wav'}, rate_hz: 8000}}}}
+  steel-plate:
+    inline: {{name: steel, object: steel-plate, model: {{type: kinetic-energy}},
+             actuator: {{type: wav, path: {tmp_path / 'steel.wav'}, rate_hz: 8000}}}}
+""")
+    with Engine(scene) as engine:
+        engine.impact("concrete-brick", 4.0, at=20.0)
+        engine.impact("steel-plate", 4.0, at=20.75)
+        engine.impact("concrete-brick", 4.0, at=21.5)
+        assert len(engine._outputs) == 2
+    (rate, brick), (_, steel) = read_wav(tmp_path / "brick.wav"), read_wav(tmp_path / "steel.wav")
+    np.testing.assert_allclose(onsets(brick[0], rate) / rate, [0.0, 1.5], atol=1e-3)
+    np.testing.assert_allclose(onsets(steel[0], rate) / rate, [0.75], atol=1e-3)
+
+
 def test_a_csv_session_is_placed_and_limited_the_same_way(tmp_path):
     scene, path = write_scene(tmp_path, kind="csv", rate=2000, extra="max_mib: 8", limits="{peak: 0.3, rms: 0.2}")
     with Engine(scene) as engine:

@@ -52,7 +52,6 @@ class Timeline:
         self.writer = None
         self.limiter: SafetyLimiter | None = None
         self.max_frames = 0
-        self.origin_s: float | None = None  # the timeline time of the file's first frame: the first impact's
         self.written = 0  # frames limited and written
         self.end = 0  # the frame after the last impact's last sample: where an impact with no time goes
         self.late = 0
@@ -60,7 +59,7 @@ class Timeline:
         self._buf = np.zeros((1, 0))  # frames written .. written + buf width, mixed, not yet limited
 
     def place(self, samples: np.ndarray, at_s: float | None = None) -> None:
-        """Add ``samples`` (channels, N) at ``at_s`` seconds on the session's timeline (None: after the last)."""
+        """Add ``samples`` (channels, N) at ``at_s`` seconds into the file (None: after the last impact)."""
         block = np.atleast_2d(np.asarray(samples, dtype=np.float64))
         if self.writer is None:
             self._open(block.shape[0])
@@ -68,12 +67,7 @@ class Timeline:
             from ..errors import DeviceError
 
             raise DeviceError(f"{self.name}: {block.shape[0]} channels, the file has {self._buf.shape[0]}")
-        if at_s is None:
-            start = self.end
-        else:
-            if self.origin_s is None:
-                self.origin_s = float(at_s) - self.end / self.rate_hz
-            start = int(round((float(at_s) - self.origin_s) * self.rate_hz))
+        start = self.end if at_s is None else int(round(float(at_s) * self.rate_hz))
         if start < self.written:
             self.late += 1
             start = self.written

@@ -71,9 +71,10 @@ class MemoryActuator(Actuator):
 class _FileActuator(Actuator):
     """Writes a session to one file on its own timeline (:class:`~hapticfx.actuators.timeline.Timeline`).
 
-    Each impact lies at its time (``play(signal, at_s=...)``; an engine passes
-    the impact's time: the sender's when it gave one, else its arrival), the
-    first at 0; an impact without a time follows the last one. Overlapping
+    Each impact lies at its time (``play(signal, at_s=...)``, seconds into the
+    file; an engine passes the impact's time since the session's first impact:
+    the sender's when it gave one, else its arrival); an impact without a time
+    follows the last one. Overlapping
     impacts sum, and the safety limiter runs on the sum in the file's own time,
     so the file holds its limits (peak, RMS over its window) sample for sample.
     The file is streamed to a temporary file, bounded by ``max_mib``, and moved
@@ -116,7 +117,7 @@ class _FileActuator(Actuator):
             raise DeviceError(str(exc)) from None
 
     def play(self, signal: Signal, at_s: float | None = None) -> None:
-        """Place ``signal`` at ``at_s`` seconds on the session's timeline (None: right after the last impact)."""
+        """Place ``signal`` at ``at_s`` seconds into the file (None: right after the last impact)."""
         if abs(signal.rate_hz - self.spec.rate_hz) > 1e-6:
             raise DeviceError(f"{self.name} actuator runs at {self.spec.rate_hz} Hz, got a signal at {signal.rate_hz} Hz")
         with self._lock:
