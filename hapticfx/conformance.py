@@ -8,16 +8,27 @@ what it would send (every sample against the peak, every ``rms_window_s`` window
 without ``mix_probe``, or whose probe lets one sample or one window over, keeps the host's limiter on the
 sum (:class:`~hapticfx.sumbound.SumBound`) and a warning says why. Plugin authors run the same check in
 their tests: :func:`hapticfx.testing.assert_mix_limiter`.
+
+The verdict depends only on code, so it is computed once per version of it: it is kept in
+``~/.cache/hapticfx/conformance.json`` (``HAPTICFX_CACHE``) under a hash of every source file of the class's
+top-level package and of the core's limiter, and checked again when one of them changes.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import logging
+import os
+import sys
 import threading
+from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
+from .atomic import atomic_path
+from .errors import HapticfxError
 from .interfaces import SafetyLimits
 
 log = logging.getLogger(__name__)
@@ -92,6 +103,42 @@ _verdicts: dict[type, bool] = {}
 _lock = threading.Lock()
 
 
+def _cache_file() -> Path:
+    return Path(os.environ.get("HAPTICFX_CACHE") or Path.home() / ".cache" / "hapticfx").expanduser() / \
+        "conformance.json"
+
+
+def fingerprint(cls) -> str:
+    """A hash of the code a class's verdict depends on: its top-level package's sources and the core limiter."""
+    top = sys.modules[cls.__module__.split(".")[0]]
+    files = sorted(Path(top.__file__).parent.rglob("*.py")) + [Path(__file__), Path(__file__).with_name("safety.py")]
+    digest = hashlib.sha256(f"{cls.__module__}.{cls.__qualname__}".encode())
+    for path in files:
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _remembered(cls, mark: str) -> list[str] | None:
+    try:
+        entry = json.loads(_cache_file().read_text()).get(f"{cls.__module__}.{cls.__qualname__}", {})
+    except (OSError, ValueError, AttributeError):
+        return None
+    return entry.get("problems") if entry.get("fingerprint") == mark else None
+
+
+def _remember(cls, mark: str, problems: list[str]) -> None:
+    path = _cache_file()
+    try:
+        known = json.loads(path.read_text()) if path.exists() else {}
+        known = known if isinstance(known, dict) else {}
+        known[f"{cls.__module__}.{cls.__qualname__}"] = {"fingerprint": mark, "problems": problems}
+        with atomic_path(path, make_parents=True) as tmp:
+            tmp.write_text(json.dumps(known, indent=1))
+    except (OSError, ValueError, HapticfxError):  # a read-only home: checked again next time
+        pass
+
+
 def limits_own_mix(actuator) -> bool:
     """Whether the host leaves the limit on the sum to ``actuator``: it declares ``limits_mix`` and its class
     passed :func:`check_mix_limiter` (checked once per class in this process)."""
@@ -101,7 +148,11 @@ def limits_own_mix(actuator) -> bool:
     with _lock:
         verdict = _verdicts.get(cls)
         if verdict is None:
-            problems = check_mix_limiter(cls)
+            mark = fingerprint(cls)
+            problems = _remembered(cls, mark)
+            if problems is None:
+                problems = check_mix_limiter(cls)
+                _remember(cls, mark, problems)
             verdict = _verdicts[cls] = not problems
             if problems:
                 log.warning("%s declares limits_mix but its limiter failed the conformance check (%s); the host "

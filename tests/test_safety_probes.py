@@ -127,3 +127,21 @@ def test_strictest_limits_hold_every_window_of_each():
     assert {(c.rms, c.rms_window_s) for c in both.constraints()} == {(0.7, 0.05), (0.9, 0.01)}
     assert both.describe()["peak"] == {"value": 0.5, "set_by": "b"}
     assert a.strictest(a) is a
+
+
+def test_the_hosts_verdict_is_computed_once_per_version_of_the_code(tmp_path, monkeypatch):
+    from hapticfx import conformance
+    from hapticfx.actuators.virtual import WavActuator
+
+    monkeypatch.setenv("HAPTICFX_CACHE", str(tmp_path))
+    calls = []
+    real = conformance.check_mix_limiter
+    monkeypatch.setattr(conformance, "check_mix_limiter", lambda cls: calls.append(cls) or real(cls))
+    actuator = WavActuator.__new__(WavActuator)
+    for _ in range(2):
+        monkeypatch.setattr(conformance, "_verdicts", {})  # a new process
+        assert conformance.limits_own_mix(actuator)
+    assert calls == [WavActuator]  # the second process read the verdict
+    monkeypatch.setattr(conformance, "fingerprint", lambda cls: "other code")
+    monkeypatch.setattr(conformance, "_verdicts", {})
+    assert conformance.limits_own_mix(actuator) and calls == [WavActuator, WavActuator]
