@@ -55,3 +55,22 @@ def test_unknown_heldout_set_is_one_clear_error(tmp_path):
                        capture_output=True, text=True, env={**os.environ, "HAPTICFX_CACHE": str(tmp_path)})
     assert r.returncode == 2 and "no held-out set 'nope'; known: heldout-irregular" in r.stderr
     assert "Traceback" not in r.stderr and not any(tmp_path.iterdir())
+
+
+def test_a_heldout_set_is_simulated_once_into_the_cache_keyed_by_its_spec(tmp_path, monkeypatch):
+    spec = tmp_path / "specs" / "tiny.yaml"
+    spec.parent.mkdir()
+    spec.write_text("name: tiny\nseed: 5\ndrops: 2\nobjects:\n  - {id: cube, mass_kg: 0.1, dimensions_mm: [40, 40, 40],"
+                    " material: wood, velocities_mps: [2.0, 3.0, 4.0]}\n")
+    monkeypatch.setattr(heldout, "SPEC_DIR", spec.parent)
+    monkeypatch.setattr(heldout, "HELDOUT", {"tiny": {}})
+    monkeypatch.setenv("HAPTICFX_CACHE", str(tmp_path / "cache"))
+    said = []
+    path = heldout.ensure("tiny", workers=1, progress=said.append)
+    assert path == heldout.dataset_path("tiny") and path.parent == tmp_path / "cache" / "datasets"
+    assert (path / "dataset.json").is_file() and any("first use" in m for m in said)
+    stamp = (path / "dataset.json").stat().st_mtime_ns
+    assert heldout.resolve("heldout:tiny") == str(path) and (path / "dataset.json").stat().st_mtime_ns == stamp
+    assert heldout.resolve("builtin:helmet-drops") == "builtin:helmet-drops"
+    spec.write_text(spec.read_text().replace("seed: 5", "seed: 6"))
+    assert heldout.dataset_path("tiny") != path  # an edited spec never reuses the old set
