@@ -46,7 +46,7 @@ class Monitor:
     def __enter__(self):
         self._proc = subprocess.Popen(
             ["parec", "-d", f"{self.sink}.monitor", "--raw", "--format=float32le", f"--rate={self.rate}",
-             f"--channels={self.channels}", "--latency-msec=50", str(self.path)],
+             f"--channels={self.channels}", "--latency-msec=250", str(self.path)],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         deadline = time.monotonic() + 5
         while not (self.path.exists() and self.path.stat().st_size > 0):
@@ -54,10 +54,12 @@ class Monitor:
                 self._proc.kill()
                 raise DeviceError(f"parec recorded nothing from {self.sink}.monitor")
             time.sleep(0.01)
+        self._started = time.monotonic()
         return self
 
     def __exit__(self, *exc):
         time.sleep(0.3)  # what was queued at the server reaches the monitor
+        self.wall_s = time.monotonic() - self._started
         self._proc.send_signal(signal.SIGINT)
         try:
             self._proc.wait(5)
@@ -69,6 +71,9 @@ class Monitor:
         data = np.fromfile(self.path, dtype="<f4")
         data = data[:data.size // self.channels * self.channels].reshape(-1, self.channels)
         self._dir.cleanup()
+        # a recording that fell behind loses frames, and a stretch lost moves sound closer together than it
+        # played: say how much of the wall time the capture holds (it starts a little before `_started`)
+        self.held = f"capture {data.shape[0] / self.rate:.2f} s of {self.wall_s:.2f} s"
         return data
 
 
@@ -87,12 +92,17 @@ def _engine_case(case: str, actuators: str, effects: str, objects: list[str], *,
                 for k in range(n):
                     built[k % engines].impact(objects[k % len(objects)], 6.0)
                     time.sleep(every_s)
+                deadline = time.monotonic() + 30
+                while any(e.stats()["pending"] for e in built) and time.monotonic() < deadline:
+                    time.sleep(0.01)
+                late = sum(o.get("losses", {}).get("late", 0) for e in built for o in e.stats()["outputs"].values())
+                underflows = sum(a.underflows for e in built for o in e._outputs.values() for a in o.actuators)
             finally:
                 stats = [e.close() for e in built]
     outputs = len(stats[0]["outputs"])
-    late = sum(o.get("losses", {}).get("late", 0) for s in stats for o in s["outputs"].values())
-    note = f"{outputs} output(s) in stats(); {late} late writes"
-    return measure(case, monitor.samples(), RATE, peak=peak, rms=rms, tolerance=STEP, note=note)
+    x = monitor.samples()
+    note = f"{outputs} output(s) in stats(); {late} late writes; {underflows} underflows; {monitor.held}"
+    return measure(case, x, RATE, peak=peak, rms=rms, tolerance=STEP, note=note)
 
 
 HELMET = "  helmet: {{type: vibro-transducer, device: {device}, gain: 1.0{extra}}}"
@@ -213,8 +223,9 @@ def osc_flood(seconds: float = 10.0, scene: Path = REPO / "scenes" / "earthquake
                 proc.communicate(timeout=60)
             except subprocess.TimeoutExpired:
                 proc.kill()
-    return measure(f"OSC flood {seconds:g} s into serve earthquake_room.yaml", monitor.samples(), RATE, peak=1.0,
-                   rms=0.7, tolerance=STEP, note=f"{sent} datagrams")
+    x = monitor.samples()
+    return measure(f"OSC flood {seconds:g} s into serve earthquake_room.yaml", x, RATE, peak=1.0,
+                   rms=0.7, tolerance=STEP, note=f"{sent} datagrams; {monitor.held}")
 
 
 SOUNDCARD_CASES: dict[str, Callable[[], Verdict]] = {
