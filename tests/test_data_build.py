@@ -159,3 +159,16 @@ def test_dataset_directory_is_not_private(tmp_path):
     umask = os.umask(0o022)
     os.umask(umask)
     assert stat.S_IMODE(out.stat().st_mode) == 0o777 & ~umask
+
+
+def test_a_velocity_from_a_drop_height_is_picked_as_it_is_printed(tmp_path):
+    """`data record --height-m 0.7995` records sqrt(2 g h) = 3.959943... m/s: the 4 decimals that messages print
+    pick it (it was matched within 1e-6 and printed with %g, so that no typed value could)."""
+    v = float(np.sqrt(2 * 9.80665 * 0.7995))
+    path = build_dataset(tmp_path / "ds", [toy_recordings(PAPER_OBJECTS["wood-beam"], [3.1, v], drops=3)], name="h",
+                         rate_hz=1000.0, sensor={}, provenance={})
+    set_representative(path, "wood-beam", 3.9599, 2)
+    rep = open_dataset(path).meta["objects"]["wood-beam"]["representative"]["overrides"]
+    assert rep == [{"velocity_mps": v, "drop": 2}]
+    with pytest.raises(DatasetError, match=r"wood-beam has no drops at 3\.959 m/s; recorded: 3\.1, 3\.9599$"):
+        set_representative(path, "wood-beam", 3.959, 1)

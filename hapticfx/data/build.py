@@ -142,6 +142,26 @@ def build_dataset(
     return out
 
 
+# A velocity a user types is matched to a recorded one within half the last of the four decimals that
+# messages print (velocities from a drop height, sqrt(2 g h), have more digits than anyone types).
+VELOCITY_DECIMALS = 4
+
+
+def velocity_text(v: float) -> str:
+    """A recorded velocity as messages print it: 4 decimals, trailing zeros dropped."""
+    return f"{v:.{VELOCITY_DECIMALS}f}".rstrip("0").rstrip(".")
+
+
+def recorded_index(object_id: str, velocities: np.ndarray, velocity_mps: float) -> int:
+    """The index of the recorded velocity ``velocity_mps`` names (the nearest, within half the last printed
+    decimal); ``DatasetError`` listing the recorded ones when none is that close."""
+    near = np.abs(np.asarray(velocities, dtype=np.float64) - velocity_mps)
+    if not near.size or near.min() > 0.5 * 10.0 ** -VELOCITY_DECIMALS + 1e-12:
+        raise DatasetError(f"{object_id} has no drops at {velocity_text(velocity_mps)} m/s; recorded: "
+                           + ", ".join(velocity_text(v) for v in velocities))
+    return int(np.argmin(near))
+
+
 def set_representative(path: Path, object_id: str, velocity_mps: float, drop: int | None,
                        *, progress: Callable[[str], None] | None = None) -> Path:
     """Set (``drop``) or clear (``None``) the manual representative of one velocity and rebuild the banks.
@@ -160,11 +180,7 @@ def set_representative(path: Path, object_id: str, velocity_mps: float, drop: in
         overrides = {float(o["velocity_mps"]): int(o["drop"])
                      for o in ds.meta["objects"][oid].get("representative", {}).get("overrides", [])}
         if oid == object_id:
-            hits = np.flatnonzero(np.abs(velocities - velocity_mps) <= 1e-6)
-            if hits.size == 0:
-                raise DatasetError(f"{object_id} has no drops at {velocity_mps} m/s; recorded: "
-                                   + ", ".join(f"{v:g}" for v in velocities))
-            v = float(velocities[hits[0]])
+            v = float(velocities[recorded_index(object_id, velocities, velocity_mps)])
             overrides = {k: d for k, d in overrides.items() if abs(k - v) > 1e-6}
             if drop is not None:
                 overrides[v] = int(drop)

@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import atomic_path
-from ..errors import DatasetError
 from .dataset import Dataset
 
 
@@ -32,11 +31,9 @@ def plot_object(ds: Dataset, object_id: str, out: Path, *, reducer: str = "max-m
     if velocity is None:
         i = len(velocities) // 2
     else:
-        hits = np.flatnonzero(np.abs(velocities - velocity) <= 1e-6)
-        if hits.size == 0:
-            raise DatasetError(f"{object_id} has no drops at {velocity} m/s; recorded: "
-                               + ", ".join(f"{v:g}" for v in velocities))
-        i = int(hits[0])
+        from .build import recorded_index
+
+        i = recorded_index(object_id, velocities, velocity)
     drops = get_registry().create("reducer", reducer).reduce(windows[i])
     chosen = int(rep["chosen"][i])
     t_ms = np.arange(drops.shape[-1]) / ds.rate_hz * 1000.0
