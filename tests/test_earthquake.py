@@ -85,6 +85,9 @@ def test_demo_writes_wav_log_json_png(demo_run):
     log = (out / "events.log").read_text()
     for e in impacts:
         assert f"IMPACT {e['object']} on the head at {e['velocity_mps']:.2f} m/s" in log
+        # each impact's own limiting, as `hapticfx play` reports it; the mix's line is the sum's
+        assert e["limiter"].startswith("safety limiter")
+        assert f"peak {e['played_peak']:.3f} of full scale; {e['limiter']}" in log
         assert np.linalg.norm(e["point_m"]) == pytest.approx(room.HEAD_RADIUS, abs=0.005)
 
 
@@ -121,3 +124,29 @@ def test_readme_command_full_sixty_seconds(tmp_path):
     hit = {e["object"] for e in summary["impacts"]}
     missed = [n for n in summary["notes"] if "did not hit" in n or "stayed on" in n]
     assert len(hit) + len(missed) == 4
+
+
+def test_an_impact_limited_on_its_own_says_so_in_the_log_as_play_does(tmp_path):
+    """The wood beam at 4.4373 m/s reaches full scale: its limiter acts (as `hapticfx play ... --velocity 4.4373`
+    says), which the log tells on the impact's line, while the mix of the impacts needs no more limiting."""
+    from hapticfx.engine import Engine
+    from hapticfx.pipeline import Pipeline
+
+    with Pipeline.from_effect(ROOT / "effects" / "falling_wood_beam.yaml", device="memory") as pipeline:
+        alone = pipeline.impact(velocity=4.4373).limiter
+    assert alone.total > 0
+    played = []
+    with Engine(ROOT / "scenes" / "earthquake_room.yaml", device="memory", on_played=played.append) as engine:
+        engine.impact("wood-beam", 4.4373, at=0.5)
+    (p,) = played
+    event = {"time_s": 0.5, "object": "wood-beam", "velocity_mps": 4.4373, "point_m": [0.0, 0.0, 0.1],
+             "effect": "falling-wood-beam", "played_peak": p.peak,
+             "limiter": p.delivery.limiter.summary()}
+    summary = {"duration_s": 1.0, "timestep_s": 0.002, "scene": "scenes/earthquake_room.yaml", "ground": {},
+               "left_shelf_s": {}, "impacts": [event], "notes": [], "engine": {}, "limiter": "safety limiter: no limiting",
+               "output": {"rate_hz": 48000, "peak": p.peak}, "wall_s": {"total": 0.0}}
+    earthquake.write_log(tmp_path / "events.log", summary)  # the demo's log of that event
+    log = (tmp_path / "events.log").read_text()
+    assert p.delivery.limiter.summary() == alone.summary()
+    assert f"peak {p.peak:.3f} of full scale; {alone.summary()}" in log
+    assert "mix of the impacts (each limited on its own, the sum limited again): safety limiter: no limiting" in log

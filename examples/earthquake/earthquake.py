@@ -135,6 +135,9 @@ def run(out: Path, *, record: str = "el-centro-1940", record_y: str | None = Non
             "normal": [round(v, 4) for v in contact.normal], "queued": queued,
             "effect": engine.scene.entries[contact.object].effect.name,
             "played_peak": round(p.peak, 4) if p else None,
+            # this impact's own limiting, as `hapticfx play` reports it (the mix's line is the sum's, limited again)
+            "limiter": (p.delivery.limiter.summary() if p.delivery and p.delivery.limiter.total or not p.limited
+                        else "safety limiter acted (on the output)") if p else None,
             "latency_ms": round(p.latency_s * 1e3, 3) if p else None,
         })
     notes.extend(result.notes)
@@ -158,8 +161,8 @@ def write_log(path: Path, s: dict) -> None:
         lines.append(f"# ground {axis}: {g['name']} (PGA {g['pga_g']:.3f} g, dt {g['dt_s']:g} s, {g['source']})")
     events = [(t, f"{oid} left its shelf") for oid, t in s["left_shelf_s"].items() if t is not None]
     for e in s["impacts"]:
-        played = (f"played {e['effect']}, peak {e['played_peak']:.3f} of full scale" if e["played_peak"] is not None
-                  else "NOT played (dropped or failed, see engine counts)")
+        played = (f"played {e['effect']}, peak {e['played_peak']:.3f} of full scale; {e['limiter']}"
+                  if e["played_peak"] is not None else "NOT played (dropped or failed, see engine counts)")
         x, y, z = e["point_m"]
         events.append((e["time_s"], f"IMPACT {e['object']} on the head at {e['velocity_mps']:.2f} m/s, "
                                     f"{where_on_head(e['point_m'])} ({x:+.3f}, {y:+.3f}, {z:+.3f}) m -> {played}"))
@@ -168,7 +171,7 @@ def write_log(path: Path, s: dict) -> None:
     for note in s["notes"]:
         lines.append(f"note: {note}")
     lines.append(f"engine: {json.dumps(s['engine'])}")
-    lines.append(f"mix: {s['limiter']}; output peak {s['output']['peak']:.3f} of full scale at {s['output']['rate_hz']:g} Hz")
+    lines.append(f"mix of the impacts (each limited on its own, the sum limited again): {s['limiter']}; output peak {s['output']['peak']:.3f} of full scale at {s['output']['rate_hz']:g} Hz")
     lines.append(f"wall time: {s['wall_s']['total']:.2f} s")
     with atomic_path(path) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
