@@ -43,10 +43,21 @@ def file_sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+def _safetensors():
+    """safetensors (its error class and torch module), or a one-line error that says how to install it."""
+    try:
+        import safetensors
+        import safetensors.torch
+    except ImportError:
+        raise CheckpointError("reading or writing network weights needs safetensors, which is not installed: "
+                              "pip install 'hapticfx-neural[train]'") from None
+    return safetensors.SafetensorError, safetensors.torch
+
+
 def save(path: Path, tensors: dict, meta: dict) -> None:
     """Write ``path`` (``.safetensors``) and its ``.json`` sidecar (with the weights' SHA-256) atomically."""
-    from safetensors import SafetensorError
-    from safetensors.torch import save_file
+    SafetensorError, st = _safetensors()
+    save_file = st.save_file
 
     path = Path(path)
     tensors = {k: v.detach().contiguous().cpu() for k, v in tensors.items()}
@@ -128,8 +139,8 @@ def check_meta(meta: dict, where: Path) -> None:
 
 def load_tensors(path: Path, *, sha256: str | None = None) -> dict:
     """The tensors of ``path``; with ``sha256``, refused unless the file has that digest."""
-    from safetensors import SafetensorError
-    from safetensors.torch import load_file
+    SafetensorError, st = _safetensors()
+    load_file = st.load_file
 
     if sha256 is not None and Path(path).is_file() and file_sha256(path) != sha256:
         raise CheckpointError(f"{path}: the weights do not match {Path(path).with_suffix('.json').name} (SHA-256 "

@@ -153,3 +153,26 @@ def test_bench_table_compares_a_trained_table_with_its_network(trained, syn_data
     assert float(rows["largest abs(table - direct) / peak, random velocities"]) <= 1e-6
     assert float(rows["largest jump / peak at r +- 1e-9 m/s, table"]) <= 1e-6
     assert float(rows["largest jump / peak at r +- 1e-9 m/s, direct"]) <= 1e-6
+
+
+def test_weights_without_safetensors_are_one_line_naming_the_install_command(tmp_path):
+    """torch installed but not safetensors: direct inference (`bench render`'s cache: false) says what to install,
+    in one line with exit 2, instead of a ModuleNotFoundError traceback."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import yaml
+
+    repo = Path(__file__).resolve().parents[3]
+    effect = yaml.safe_load((repo / "effects" / "falling_brick_convbilstm.yaml").read_text())
+    effect["model"]["interpolator_options"] = {**effect["model"].get("interpolator_options", {}), "cache": False}
+    path = tmp_path / "direct.yaml"
+    path.write_text(yaml.safe_dump(effect))
+    code = ("import sys\nsys.modules['safetensors'] = None\nfrom hapticfx.cli import main\n"
+            f"sys.argv = ['hapticfx', 'render', {str(path)!r}, '--out', {str(tmp_path / 'x.wav')!r}]\nmain()\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines() == [
+        f"hapticfx: error: {path}: model: reading or writing network weights needs safetensors, which is not "
+        "installed: pip install 'hapticfx-neural[train]'"]
