@@ -79,3 +79,14 @@ def test_benchmarks_page_is_a_reference_every_table_with_its_command():
         starts_table = line.startswith("|") and number > 1 and not lines[number - 2].startswith("|")
         if starts_table and "| command |" not in line and "| target |" not in line:
             assert section_command, f"docs/benchmarks.md:{number}: a table with no command above it in its section"
+
+
+def test_every_documented_render_command_names_its_output():
+    """`hapticfx render` needs --out (docs/families.md showed it without, which stops with "Missing option")."""
+    import re
+
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    found = [(page.name, line.strip()) for page in pages for line in page.read_text().splitlines()
+             if re.match(r"\s*(\$ )?hapticfx render \S", line)]
+    assert found
+    assert [x for x in found if not re.search(r"(--out|-o) \S", x[1])] == []
