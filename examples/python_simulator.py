@@ -55,7 +55,10 @@ def main() -> None:
     args = ap.parse_args()
 
     if args.osc:
-        from pythonosc.udp_client import SimpleUDPClient
+        try:
+            from pythonosc.udp_client import SimpleUDPClient
+        except ImportError:
+            raise SystemExit("--osc sends with python-osc, which is not installed: pip install python-osc") from None
 
         host, port = args.osc.rsplit(":", 1)
         client = SimpleUDPClient(host, int(port))

@@ -28,3 +28,17 @@ def test_no_stray_files_in_the_repository_root():
     tracked = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
     top = sorted({p.split("/")[0] for p in tracked if "/" not in p})
     assert top == [".gitignore", "LICENSE", "README.md", "mkdocs.yml", "pyproject.toml"], top
+
+
+def test_every_core_dependency_is_imported_by_the_core():
+    """python-osc was a core dependency that only tests and examples used (the OSC decoder is hapticfx's own)."""
+    import re
+
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    modules = {"pyyaml": "yaml", "python-osc": "pythonosc"}
+    source = "\n".join(p.read_text() for p in (ROOT / "hapticfx").rglob("*.py"))
+    for requirement in meta["dependencies"]:
+        name = re.match(r"[A-Za-z0-9_.-]+", requirement).group(0).lower()
+        module = modules.get(name, name.replace("-", "_"))
+        assert re.search(rf"^\s*(import|from) {module}\b", source, re.M), f"{name} is not imported by hapticfx"
+    assert any(r.startswith("python-osc") for r in meta["optional-dependencies"]["test"])
