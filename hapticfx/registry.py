@@ -13,6 +13,7 @@ import os
 import threading
 from dataclasses import dataclass
 from importlib import metadata
+from pathlib import Path
 from typing import Any
 
 import pluggy
@@ -32,6 +33,15 @@ FIRST_PARTY = {
     **{("interpolator", n): "hapticfx-neural"
        for n in ("convbilstm", "lstm", "bilstm", "lstm-sae", "bilstm-ed", "convlstm-ed")},
 }
+def install_hint(dist: str) -> str:
+    """The command that installs first-party distribution ``dist``: from the source tree hapticfx runs from
+    when there is one (the plugins are not on PyPI)."""
+    tree = Path(__file__).resolve().parents[1] / "plugins" / dist
+    if (tree / "pyproject.toml").is_file():
+        return f"pip install {tree}"
+    return f"pip install ./plugins/{dist} in hapticfx's source tree (it is not on PyPI)"
+
+
 BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data", "hapticfx.builtins.physics", "hapticfx.builtins.scene",
                    "hapticfx.builtins.study", "hapticfx.builtins.formats")
 ENTRY_POINT_GROUP = "hapticfx"
@@ -169,7 +179,7 @@ class Registry:
             where = ""
             dist = FIRST_PARTY.get((kind, name))
             if dist:
-                where = f"; it comes with {dist} (pip install {dist}; from the source tree: plugins/{dist})"
+                where = f"; it comes with {dist}: {install_hint(dist)}"
             raise PluginError(
                 f"unknown {kind} {name!r}{where}; installed: {', '.join(self.names(kind)) or 'none'}"
             ) from None

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import inspect
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -277,4 +278,15 @@ def test_a_missing_plugin_names_the_distribution_to_install(tmp_path):
     effect.write_text("name: e\nobject: concrete-brick\nmodel: {type: kinetic-energy}\nactuator: {type: vibro-transducer}\n")
     r = subprocess.run([sys.executable, "-m", "hapticfx", "render", str(effect), "--out", str(tmp_path / "x.wav")],
                        capture_output=True, text=True, env={**os.environ, "HAPTICFX_PLUGINS": ""})
-    assert r.returncode == 2 and "pip install hapticfx-soundcard" in r.stderr and len(r.stderr.splitlines()) == 1
+    # the command that works: the plugins are installed from the source tree, they are not on PyPI
+    root = Path(__file__).resolve().parents[1]
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1, r.stderr
+    assert f"it comes with hapticfx-soundcard: pip install {root / 'plugins' / 'hapticfx-soundcard'};" in r.stderr
+
+
+def test_outside_a_source_tree_the_hint_says_where_the_plugin_is(monkeypatch, tmp_path):
+    from hapticfx import registry
+
+    monkeypatch.setattr(registry, "__file__", str(tmp_path / "site-packages" / "hapticfx" / "registry.py"))
+    assert registry.install_hint("hapticfx-solenoid") == ("pip install ./plugins/hapticfx-solenoid in hapticfx's "
+                                                          "source tree (it is not on PyPI)")
