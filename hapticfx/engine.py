@@ -42,11 +42,10 @@ from .osc import ImpactMessage
 from .pipeline import Delivery, Pipeline, build_actuator
 from .ratelog import RateLimitedLog
 from .registry import Registry
-from .conformance import limits_own_mix
 from .safety import SafetyLimiter
 from .scene import Scene, load_scene, stand_in_for
 from .signal import Signal, valid_number, valid_velocity
-from .sumbound import SumBound
+from .sumbound import SumBound, host_limiter
 from .spatial import Spatialiser
 
 log = logging.getLogger(__name__)
@@ -115,20 +114,6 @@ class _Site:
     channel: int
     actuator: Actuator
     limiter: SafetyLimiter | SumBound | None = None
-
-
-def host_limiter(actuator: Actuator, limits, *, summed: bool) -> SafetyLimiter | SumBound | None:
-    """The host's limit on what reaches one opened actuator, at the rate it reports after ``open()``: none
-    where the actuator limits its own mix and its limiter passed the conformance check
-    (:mod:`hapticfx.conformance`), a bound on any sum where it sums impacts without that
-    (:class:`~hapticfx.sumbound.SumBound`), a limiter on the stream where several effects (or sites) share it
-    (``summed``; a single effect's pipeline limits its stream itself)."""
-    rate = actuator.spec.rate_hz
-    if limits_own_mix(actuator):
-        return None
-    if actuator.limits_mix:
-        return SumBound(limits, rate)
-    return SafetyLimiter(limits, rate) if summed else None
 
 
 class _Output:

@@ -7,6 +7,7 @@ plays it and returns what was sent.
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from .interfaces import Actuator, Impact, Model
 from .params import BuildContext
 from .registry import Registry, get_registry
 from .safety import LimiterReport, SafetyLimiter
+from .sumbound import host_limiter
 from .shaping import ShapedAtoms, shape
 from .signal import Signal, valid_velocity
 
@@ -99,6 +101,7 @@ class Pipeline:
         units = getattr(self.model, "units", "g")
         self.scale = 1.0 / effect.actuator.full_scale_g if units == "g" else 1.0
         self.atoms = ShapedAtoms(gain=self.gain, scale=self.scale)  # the model's atoms, shaped for the actuator
+        self.sum_limit = None  # see adopt()
         self._lock = threading.Lock()
         self._opened = False
         self._t0 = time.monotonic()
@@ -125,6 +128,8 @@ class Pipeline:
         self.actuator = actuator
         if self.limiter.rate_hz != actuator.spec.rate_hz:
             self.limiter = SafetyLimiter(self.limits, actuator.spec.rate_hz)
+        # an actuator that sums overlapping impacts without a limiter the host trusts: a bound on their sum
+        self.sum_limit = host_limiter(actuator, self.limits, summed=False)
         self.warm()
 
     def warm(self) -> None:
@@ -170,6 +175,10 @@ class Pipeline:
         if not self._opened:
             raise DeviceError("the pipeline is not open: use `with pipeline:` or call open() first")
         delivery = self.render(velocity=velocity, object=object)
+        if self.sum_limit is not None:
+            out = delivery.output
+            bounded = Signal.adopt(self.sum_limit.process(out.samples, at_s=delivery.impact.time_s), out.rate_hz)
+            delivery = dataclasses.replace(delivery, output=bounded)
         if self.actuator.takes_time:  # a file: the impact at its time after the first impact
             with self._lock:
                 if self._first_s is None:

@@ -16,9 +16,9 @@ from collections import deque
 
 import numpy as np
 
-from .conformance import window_rms
-from .interfaces import SafetyLimits
-from .safety import LimiterReport
+from .conformance import limits_own_mix, window_rms
+from .interfaces import Actuator, SafetyLimits
+from .safety import LimiterReport, SafetyLimiter
 
 SLACK_S = 0.25
 
@@ -66,3 +66,17 @@ class SumBound:
             db = -20 * np.log10(self._least) if self._least > 0 else float("inf")
             acted = ("sum of overlapping impacts (host bound)",) if self._events else ()
             return LimiterReport(peak_events=self._events, max_reduction_db=float(db), acted=acted)
+
+
+def host_limiter(actuator: Actuator, limits, *, summed: bool) -> SafetyLimiter | SumBound | None:
+    """The host's limit on what reaches one opened actuator, at the rate it reports after ``open()``: none
+    where the actuator limits its own mix and its limiter passed the conformance check
+    (:mod:`hapticfx.conformance`), a bound on any sum where it sums impacts without that
+    (:class:`~hapticfx.sumbound.SumBound`), a limiter on the stream where several effects (or sites) share it
+    (``summed``; a single effect's pipeline limits its stream itself)."""
+    rate = actuator.spec.rate_hz
+    if limits_own_mix(actuator):
+        return None
+    if actuator.limits_mix:
+        return SumBound(limits, rate)
+    return SafetyLimiter(limits, rate) if summed else None

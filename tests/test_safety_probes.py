@@ -25,11 +25,24 @@ def test_an_actuator_that_declares_limits_mix_and_limits_nothing_gets_the_hosts_
     assert v.peak > 0.3  # the impacts did come through
 
 
+def test_the_same_actuator_under_a_plain_pipeline_gets_the_bound_too():
+    v = probe.lying_mixer_pipeline(60)
+    assert v.held, v
+    assert v.peak > 0.3
+
+
 def test_an_actuator_that_lowers_its_rate_in_open_is_limited_at_that_rate():
     """Case 6: a limiter left at 48 kHz let 50 ms windows at 8 kHz reach RMS 0.88 against 0.5."""
     v = probe.rate_dropper(30)
     assert v.held, v
     assert v.rms > 0.4 and v.note == "runs at 8000 Hz"
+
+
+def test_a_wav_output_holds_the_limit_in_the_files_own_time():
+    """Case 4 (the file outputs keep the limit in the file's time): overlapping impacts summed in the file."""
+    v = probe.wav_flood(150)
+    assert v.held, v
+    assert v.peak > 0.5
 
 
 @pytest.mark.parametrize("threads", [1, 8])

@@ -117,6 +117,26 @@ def lying_mixer(n: int = 300) -> Verdict:
                    peak=hard.peak, rms=hard.rms)
 
 
+def lying_mixer_pipeline(n: int = 100) -> Verdict:
+    """The same plugin under a plain Pipeline (``hapticfx play``, embedding): impacts 2 ms apart."""
+    import yaml
+
+    from ..effect import effect_from_mapping
+    from ..pipeline import Pipeline
+
+    effect = effect_from_mapping(yaml.safe_load(f"{{name: b, object: concrete-brick, model: {LOUD}, "
+                                                "actuator: {type: lying-mixer, gain: 1.0}}"),
+                                 source="probe.yaml", base_dir=Path("."))
+    with Pipeline(effect, registry=registry_with(ThirdParty())) as pipeline:
+        for _ in range(n):
+            pipeline.impact()
+            time.sleep(0.002)
+        actuator = pipeline.actuator
+    hard = HARD["lying-mixer"]
+    return measure("third-party limits_mix that limits nothing, through a Pipeline", actuator.timeline(),
+                   actuator.spec.rate_hz, peak=hard.peak, rms=hard.rms)
+
+
 def rate_dropper(n: int = 60) -> Verdict:
     """A plugin that lowers its rate in open(): impacts back to back in its own time, at the rate it agreed."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -154,6 +174,25 @@ def shared_memory(n: int = 4000, threads: int = 1) -> Verdict:
     return measure(what, x, actuator.spec.rate_hz, peak=hard.peak, rms=hard.rms)
 
 
+def wav_flood(n: int = 300, every_s: float = 0.002) -> Verdict:
+    """Case 4 (issue 31, in the file's own time): impacts 2 ms apart into a WAV output, read back."""
+    from ..actuators.files import read_wav
+
+    with tempfile.TemporaryDirectory() as tmp:
+        wav = Path(tmp) / "session.wav"
+        objs = ["concrete-brick", "steel-plate"]
+        effects = "\n".join(f"  {o}: {{actuator: out, inline: {INLINE.format(name=o, obj=o, extra='')}}}" for o in objs)
+        scene = write_scene(Path(tmp), f"  out: {{type: wav, path: {wav}, rate_hz: 8000, format: float32, gain: 1.0}}",
+                            effects)
+        engine = Engine(scene)
+        hard = engine._outputs["actuators.out"].actuator.spec.limits
+        flood(engine, objs, n, every_s=every_s)
+        engine.close()
+        rate, x = read_wav(wav)
+    return measure("WAV output, impacts 2 ms apart, read back", x.T, rate, peak=hard.peak, rms=hard.rms,
+                   note=f"{x.shape[1] / rate:.2f} s in the file")
+
+
 def refused(case: str, build: Callable[[], object], peak: float, rms: float) -> Verdict:
     """A case that must be refused with a clear error (nothing plays); ``build()`` closes what it opened."""
     try:
@@ -165,7 +204,9 @@ def refused(case: str, build: Callable[[], object], peak: float, rms: float) -> 
 
 CORE_CASES: dict[str, Callable[[], Verdict]] = {
     "lying-mixer": lying_mixer,
+    "lying-mixer-pipeline": lying_mixer_pipeline,
     "rate-dropper": rate_dropper,
+    "wav-flood": wav_flood,
     "memory-4000": shared_memory,
     "memory-8-threads": lambda: shared_memory(4000, threads=8),
 }
