@@ -201,15 +201,10 @@ def osc_flood(seconds: float = 10.0, scene: Path = REPO / "scenes" / "earthquake
             if not line.startswith("listening on"):
                 raise DeviceError(f"serve did not start: {line}{proc.stderr.read()[-500:]}")
             port = int(line.split()[2].rsplit(":", 1)[1])
-            from pythonosc.osc_message_builder import OscMessageBuilder
+            from hapticfx.osc import encode_impact
 
             objs = ["concrete-brick", "steel-plate", "wood-beam", "plastic-frame"]
-            grams = []
-            for k, o in enumerate(objs):
-                b = OscMessageBuilder("/hapticfx/impact")
-                b.add_arg(o)
-                b.add_arg(float(2.0 + k), "f")
-                grams.append(b.build().dgram)
+            grams = [encode_impact(o, 2.0 + k) for k, o in enumerate(objs)]
             sent = 0
             with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
                 end = time.monotonic() + seconds
