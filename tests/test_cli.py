@@ -148,7 +148,8 @@ def test_help_lists_the_common_commands_first_and_completion_works():
     import subprocess
     import sys
 
-    listed = [line.split()[0] for line in hfx("--help").stdout.split("Commands:")[1].splitlines() if line.strip()]
+    listed = [line.split()[0] for line in hfx("--help").stdout.split("Commands:")[1].splitlines()
+              if line.strip() and not line.startswith("   ")]  # a summary's wrapped lines are indented further
     assert listed[:5] == ["play", "render", "validate", "info", "serve"]
     done = subprocess.run([sys.executable, "-m", "hapticfx"], capture_output=True, text=True, env={
         **os.environ, "COMP_WORDS": "hapticfx pl", "COMP_CWORD": "1", "_HAPTICFX_COMPLETE": "complete_bash"})
@@ -220,3 +221,24 @@ def test_plugins_and_study_check_print_json():
     check = json.loads(hfx("study", "check", REPO / "studies" / "paper_study2.yaml", "--json", "--trials").stdout)
     assert check["study"] == "paper-study-2-matching-similarity" and len(check["tasks"]) == 6
     assert sum(t["trials"] + t["practice"] for t in check["tasks"]) == len(check["schedule"])
+
+
+def test_command_lists_show_whole_phrases_not_cut_ones():
+    """Click cut each command's summary at a fixed width ('Check effect files (or haptic files: .haptic,
+    .ahap,...'); the lists show the first sentence up to its first colon or semicolon instead."""
+    import typer
+
+    from hapticfx.cli import build_app, summary
+
+    def walk(command, path):
+        for name, sub in getattr(command, "commands", {}).items():
+            yield " ".join([*path, name]), sub
+            yield from walk(sub, [*path, name])
+
+    listed = dict(walk(typer.main.get_command(build_app()), []))
+    assert {"validate", "bench", "bench fuzz", "data pick", "study check"} <= set(listed)
+    for name, command in listed.items():
+        text = command.get_short_help_str(limit=45)
+        assert text.endswith(".") and not text.endswith("..."), (name, text)
+    assert summary("Fuzz the input gates: every mutant (a, b: c) must be refused.\n\nMore.") == "Fuzz the input gates."
+    assert summary("Check files (or haptic files: .ahap, ...), scenes; then more") == "Check files (or haptic files: .ahap, ...), scenes."

@@ -40,7 +40,33 @@ def build_app() -> typer.Typer:
 
     get_registry().pm.hook.register_commands(app=app, bench=bench, data=data)
     app.registered_commands.sort(key=_rank)  # plugins register in any order; --help lists the common first
+    _summarise(app)
     return app
+
+
+def summary(text: str | None) -> str:
+    """The one-line summary of a command's help for the lists of commands: its first sentence, up to its first
+    colon or semicolon outside brackets (what follows one is detail). Click would cut the text at a fixed
+    width, mid-phrase ('Check effect files (or haptic files: .haptic, .ahap,...')."""
+    words = " ".join((text or "").strip().split("\n\n")[0].split())
+    depth = 0
+    for i, ch in enumerate(words):
+        depth += (ch in "([{") - (ch in ")]}")
+        if depth <= 0 and (ch in ":;" or ch == ".") and (i + 1 == len(words) or words[i + 1] == " "):
+            return words[:i] + "."
+    return words
+
+
+def _summarise(app: typer.Typer) -> None:
+    """Give every command and group without a short help the :func:`summary` of its help."""
+    for info in app.registered_commands:
+        if info.short_help is None:
+            info.short_help = summary(info.help or (info.callback.__doc__ if info.callback else ""))
+    for group in app.registered_groups:  # a group's settings may be typer's DefaultPlaceholder(value)
+        info = group.typer_instance.info
+        if all(getattr(x, "value", x) is None for x in (group.short_help, info.short_help)):
+            group.short_help = summary(getattr(group.help, "value", group.help) or getattr(info.help, "value", info.help))
+        _summarise(group.typer_instance)
 
 
 # Commands in the order `hapticfx --help` lists them: most used first; others (a plugin's) after these.

@@ -171,8 +171,8 @@ def validate(
     files: list[Path] = typer.Argument(..., help="Effect, scene or study files, or haptic files, to check."),
     as_json: bool = typer.Option(False, "--json", help=JSON_HELP),
 ):
-    """Check effect files (or haptic files: .haptic, .ahap, ...), scenes and studies as `play`, `serve` and
-    `study run` would load them, short of opening a device: keys, types, ranges, plugins and their parameters,
+    """Check effect, scene and study files (and haptic files: .haptic, .ahap, ...) as `play`, `serve` and
+    `study run` would load them, short of opening a device; keys, types, ranges, plugins and their parameters,
     the dataset, object, reducer, interpolator and its options, weights or tables, and the limits against the
     actuator's hard limits. A YAML file is a scene when it has `effects` or `actuators` and no `model`, a
     study when it has `tasks` or `stimuli`. Exit 2 if any fails."""
