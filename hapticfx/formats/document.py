@@ -31,6 +31,10 @@ def load_document(path: Path, *, lenient: bool = False) -> Any:
     except (OSError, UnicodeDecodeError) as exc:
         raise HapticFileError(f"cannot read: {exc.strerror if isinstance(exc, OSError) else exc}", source=source) from None
     if lenient:
+        try:  # JSON is JSON5: the strict parser first, ~100 times faster than json5 on files that need no leniency
+            return json.loads(text, parse_constant=_reject_constant)
+        except (ValueError, RecursionError):
+            pass
         import json5
 
         try:
@@ -85,6 +89,8 @@ class Reader:
     def number(self, node: Any, where: str, *, integer: bool = False) -> float:
         if isinstance(node, bool) or not isinstance(node, (int, float)) or (integer and not isinstance(node, int)):
             self.fail(where, f"expected {'an integer' if integer else 'a number'}, got {node!r}"[:120], "types")
+        if isinstance(node, int) and abs(node) > 1e300:
+            self.fail(where, f"expected a number of ordinary size, got one of {len(str(node))} digits", "types")
         if not math.isfinite(node):
             self.fail(where, f"expected a finite number, got {node}", "types")
         return node if integer else float(node)

@@ -265,6 +265,37 @@ def _at2(data: bytes, work: Path) -> None:
     read_at2(path)
 
 
+def _haptic_seeds(suffix: str):
+    """A file of each platform format, exported from a decaying sine with a sharp onset."""
+
+    def seeds(work: Path) -> list[bytes]:
+        from ..formats import ExportOptions, format_for
+        from ..formats.device import PRESETS
+        from ..signal import Signal
+
+        t = np.arange(9600) / 48000
+        x = Signal(np.where(t > 0.01, 0.6 * np.exp(-t / 0.05) * np.sin(2 * np.pi * 120 * t), 0.0), 48000.0)
+        path = work / f"seed{suffix}"
+        format_for(path).write(path, x, ExportOptions(device=PRESETS["quest"]))
+        return [path.read_bytes()]
+
+    return seeds
+
+
+def _haptic_file(suffix: str):
+    """Read, validate and render a haptic file as ``hapticfx play`` does before shaping."""
+
+    def run(data: bytes, work: Path) -> None:
+        from ..formats import format_for
+        from ..formats.device import PRESETS
+
+        path = work / f"fuzz{suffix}"
+        path.write_bytes(data)
+        format_for(path).read(path, PRESETS["quest"], rate_hz=8000.0)
+
+    return run
+
+
 def _installed(module: str) -> bool:
     import importlib.util
 
@@ -282,6 +313,8 @@ def gates() -> dict[str, Gate]:
         Gate("osc", lambda w: list(OSC_SEEDS), _osc_run),
         Gate("serial", lambda w: list(SERIAL_SEEDS), _serial),
         Gate("at2", lambda w: [AT2_SEED], _at2),
+        *(Gate(name, _haptic_seeds(suffix), _haptic_file(suffix))
+          for name, suffix in (("haptic", ".haptic"), ("android", ".android.json"), ("hjif", ".hjif"))),
     ]
     if _installed("hapticfx_neural"):
         out.append(Gate("checkpoint", _checkpoint_seeds, _checkpoint))
