@@ -191,6 +191,9 @@ def scene_from_mapping(data: Any, *, source: str, base_dir: Path) -> Scene:
     }
     head = parse_head(data["head"], source=source, actuators=actuators) if data.get("head") is not None else None
     if head is not None:
+        if not any(isinstance(raw, dict) and raw.get("actuator") == head.actuator for raw in raw_effects.values()):
+            raise EffectError(f"no effect plays on {head.actuator!r}: give the objects that land on the head "
+                              f"`actuator: {head.actuator}`", source=source, key="head.actuator")
         for oid, raw in raw_effects.items():
             if isinstance(raw, dict) and raw.get("actuator") == head.actuator and "channel" in raw:
                 raise EffectError(f"actuator {head.actuator!r} is the head's: its channels are the sites under "

@@ -110,6 +110,15 @@ def test_bad_head_sections_name_the_key(change, key, words):
     assert err.value.key == key and words in str(err.value)
 
 
+def test_a_head_that_no_effect_plays_on_is_refused():
+    raw = yaml.safe_load(yaml.safe_dump(SCENE))
+    raw["actuators"]["other"] = {"type": "memory"}
+    raw["effects"]["brick"]["actuator"] = "other"
+    with pytest.raises(EffectError, match="no effect plays on 'helmet'") as err:
+        scene_from_mapping(raw, source="s.yaml", base_dir=ROOT)
+    assert err.value.key == "head.actuator"
+
+
 def test_an_entry_on_the_head_actuator_names_no_channel():
     raw = yaml.safe_load(yaml.safe_dump(SCENE))
     raw["effects"]["brick"]["channel"] = 0
