@@ -20,7 +20,9 @@ table can never be served.
 
 File: one ``.npz`` (no pickle) holding ``meta_json`` and, per object ``k`` (in sorted order of ids),
 ``o<k>.w`` (nodes of all intervals, concatenated), ``o<k>.starts`` (where each
-interval's nodes start; one more entry than intervals) and ``o<k>.residual``.
+interval's nodes start; one more entry than intervals) and ``o<k>.residual``;
+``x.<name>`` for what the table's owner keeps beside it (a physics model's
+profiles at its own velocity grid: :mod:`hapticfx.models.physics_table`).
 """
 
 from __future__ import annotations
@@ -118,10 +120,12 @@ class VelocityTable:
     from; :meth:`lookup` then answers for that bank's intervals.
     """
 
-    def __init__(self, meta: dict, intervals: dict[str, list[Interval]], *, path: Path | None = None):
+    def __init__(self, meta: dict, intervals: dict[str, list[Interval]], *, path: Path | None = None,
+                 arrays: dict[str, np.ndarray] | None = None):
         self.meta = meta
         self.intervals = intervals
         self.path = path
+        self.arrays = dict(arrays or {})  # what the table's owner keeps beside it (a physics table: its knots)
         self._index: dict[tuple, tuple[str, int, Interval, float]] = {}
 
     @classmethod
@@ -204,15 +208,17 @@ class VelocityTable:
         return None if found is None else found.of(lower, upper)
 
     # -- file -----------------------------------------------------------------------------
-    def save(self, path: str | Path) -> Path:
-        """Write the table atomically (one ``.npz``, no pickle)."""
+    def save(self, path: str | Path, *, residual_dtype=np.float64) -> Path:
+        """Write the table atomically (one ``.npz``, no pickle); residuals as ``residual_dtype`` (read back as
+        float64)."""
         path = Path(path)
         arrays = {"meta_json": np.array(json.dumps(self.meta, sort_keys=True))}
         for k, obj in enumerate(sorted(self.meta["objects"])):
             ivs = self.intervals[obj]
             arrays[f"o{k}.w"] = np.concatenate([iv.w for iv in ivs])
             arrays[f"o{k}.starts"] = np.cumsum([0] + [len(iv.w) for iv in ivs]).astype(np.int64)
-            arrays[f"o{k}.residual"] = np.concatenate([iv.residual for iv in ivs])
+            arrays[f"o{k}.residual"] = np.concatenate([iv.residual for iv in ivs]).astype(residual_dtype)
+        arrays.update({f"x.{name}": value for name, value in self.arrays.items()})
         with atomic_path(path, make_parents=True) as tmp:
             with open(tmp, "wb") as fh:
                 np.savez_compressed(fh, **arrays)
@@ -237,7 +243,8 @@ class VelocityTable:
             raise CheckpointError(f"{path}: table format version {meta.get('version')!r}; "
                                   f"this hapticfx reads version {VERSION}")
         try:
-            return cls(meta, _intervals(meta, arrays), path=path)
+            extra = {k[2:]: v for k, v in arrays.items() if k.startswith("x.")}
+            return cls(meta, _intervals(meta, arrays), path=path, arrays=extra)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise CheckpointError(f"{path}: malformed velocity table ({exc})") from exc
 
@@ -292,37 +299,66 @@ def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, 
 
 
 def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float) -> Interval:
-    lo, hi = bank[i], bank[i + 1]
+    return tabulate_interval(bank[i], bank[i + 1], residual_fn, tolerance, obj=bank.object)
+
+
+def _position(f: Fraction) -> float:
+    return 0.5 - 0.5 * math.cos(math.pi * float(f))
+
+
+def _nodes(degree: int) -> list[Fraction]:
+    return [Fraction(j, degree) for j in range(degree + 1)]
+
+
+def _ends_from_interior(degree: int, rows: list[np.ndarray]) -> list[np.ndarray]:
+    """``rows`` with the two end rows replaced by the polynomial through the interior nodes (degree - 2), so that
+    the profile ``linear + bump * s * r`` is the polynomial of degree ``degree`` through the profile at every node.
+    For a method with no residual of its own at the neighbours (a physics model: ``r`` is 0/0 there)."""
+    if degree < 2:
+        zero = np.zeros_like(rows[0])
+        return [zero, zero]
+    inner = Interval(np.array([_position(f) for f in _nodes(degree)[1:-1]]), np.stack(rows[1:-1]))
+    return [inner.at(0.0), *rows[1:-1], inner.at(1.0)]
+
+
+def tabulate_interval(lo: Profile, hi: Profile, residual_fn: ResidualFn, tolerance: float, *, obj: str,
+                      max_degree: int = _MAX_DEGREE, probes: int = 4) -> Interval:
+    """The residual of one interval between neighbours ``lo`` and ``hi`` on Chebyshev-Lobatto nodes, the degree
+    doubled until the polynomial misses ``residual_fn`` by at most ``tolerance`` at the nodes of ``probes`` times
+    the degree (weighted by the bump, relative to the neighbours' larger peak). With ``probes=2`` every probe is a
+    node of the next degree: no evaluation is wasted (for a costly method, such as an ODE).
+
+    A ``residual_fn`` may answer NaN at ``w`` = 0 and 1 (it has no value of its own there): the end rows are then
+    those of the polynomial through the interior nodes (:func:`_ends_from_interior`).
+    """
+    n_samples = lo.samples.shape[-1]
     known: dict[Fraction, np.ndarray] = {}  # node j of degree d is the fraction j/d: nested degrees share nodes
-
-    def nodes(degree: int) -> list[Fraction]:
-        return [Fraction(j, degree) for j in range(degree + 1)]
-
-    def position(f: Fraction) -> float:
-        return 0.5 - 0.5 * math.cos(math.pi * float(f))
 
     def fill(fracs: list[Fraction]) -> None:
         todo = [f for f in fracs if f not in known]
         if todo:
-            ws = np.array([position(f) for f in todo])
+            ws = np.array([_position(f) for f in todo])
             v = lo.velocity + ws * (hi.velocity - lo.velocity)
             n = len(todo)
             r = residual_fn(np.repeat(lo.samples[None], n, 0), np.repeat(hi.samples[None], n, 0),
-                            np.full(n, lo.velocity), np.full(n, hi.velocity), v, bank.object)
-            known.update(zip(todo, np.asarray(r, dtype=np.float64).reshape(n, bank.n_samples)))
+                            np.full(n, lo.velocity), np.full(n, hi.velocity), v, obj)
+            known.update(zip(todo, np.asarray(r, dtype=np.float64).reshape(n, n_samples)))
 
     degree = 1
     while True:
-        fill(nodes(4 * degree))
-        iv = Interval(np.array([position(f) for f in nodes(degree)]), np.stack([known[f] for f in nodes(degree)]))
-        probes = [f for f in nodes(4 * degree) if f not in set(nodes(degree))]
-        err = max(float(np.max(bump(position(f)) * np.abs(known[f] - iv.at(position(f))))) for f in probes)
+        fill(_nodes(probes * degree))
+        rows = [known[f] for f in _nodes(degree)]
+        if not (np.all(np.isfinite(rows[0])) and np.all(np.isfinite(rows[-1]))):
+            rows = _ends_from_interior(degree, rows)
+        iv = Interval(np.array([_position(f) for f in _nodes(degree)]), np.stack(rows))
+        checks = [f for f in _nodes(probes * degree) if f not in set(_nodes(degree))]
+        err = max(float(np.max(bump(_position(f)) * np.abs(known[f] - iv.at(_position(f))))) for f in checks)
         if err <= tolerance:
             return iv
-        if 2 * degree > _MAX_DEGREE:
-            raise CheckpointError(f"{bank.object}: the interpolator's residual between {lo.velocity:g} and "
-                                  f"{hi.velocity:g} m/s is not smooth enough to tabulate within {tolerance:g} "
-                                  f"(still {err:.2g} with {degree + 1} nodes)")
+        if 2 * degree > max_degree:
+            raise CheckpointError(f"{obj}: the residual between {lo.velocity:g} and {hi.velocity:g} m/s is not "
+                                  f"smooth enough to tabulate within {tolerance:g} (still {err:.2g} with "
+                                  f"{degree + 1} nodes)")
         degree *= 2
 
 
@@ -339,5 +375,5 @@ class TableServed(Interpolator):
         return () if self.table is None else self.table.atoms(bank)
 
 
-__all__ = ["VelocityTable", "Interval", "TableServed", "neighbours", "build_table", "bank_digest",
-           "DEFAULT_TOLERANCE"]
+__all__ = ["VelocityTable", "Interval", "TableServed", "neighbours", "build_table", "tabulate_interval",
+           "bank_digest", "DEFAULT_TOLERANCE"]
