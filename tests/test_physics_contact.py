@@ -10,7 +10,7 @@ import pytest
 from hapticfx.droprig.contact import Block, DropScene
 from hapticfx.droprig.state import JY, VY, Y
 from hapticfx.droprig.hertz import hunt_crossley
-from hapticfx.droprig.helmet import Helmet
+from hapticfx.droprig.receiver import Receiver
 from hapticfx.droprig.synth import Drop, Rig, scene_for, simulate_drop
 from hapticfx.objects import PAPER_OBJECTS, ObjectInfo
 
@@ -44,7 +44,7 @@ def test_no_solver_steps_over_the_contact_at_loose_tolerance(method):
 
 
 def _contact_time_and_restitution(velocity, damping):
-    heavy = Helmet(mass=1e4)  # an immovable helmet: the textbook Hertz/Hunt-Crossley impact
+    heavy = Receiver(mass=1e4)  # an immovable helmet: the textbook Hertz/Hunt-Crossley impact
     sc = DropScene(Block(0.1, 0.02, 0.01), heavy, stiffness=1e7, damping=damping, velocity=velocity, gap=1e-7)
     t = np.linspace(0.0, 0.004, 40001)
     states = sc.integrate(0.004, method="DOP853", rtol=1e-10).sol(t)

@@ -14,7 +14,8 @@ from hapticfx.registry import get_registry
 
 def build(mapping=None, object_id="wood-beam", info=True):
     cls = get_registry().get("model", "contact").resolve()
-    params = parse_params(cls.Params, mapping or {}, source="fx.yaml", key="model")
+    # the physics itself, integrated at every impact (tests/test_physics_table.py checks the tables against it)
+    params = parse_params(cls.Params, {"table": False, **(mapping or {})}, source="fx.yaml", key="model")
     ctx = BuildContext(source="fx.yaml", object_id=object_id,
                        object_info=PAPER_OBJECTS.get(object_id) if info else None)
     return cls(params, ctx)
@@ -66,7 +67,7 @@ def test_material_and_stiffness_change_the_sound_of_it():
 @pytest.mark.parametrize("velocity", [0.01, 20.0])
 @pytest.mark.parametrize("stiffness", [1e3, 1e10])
 def test_finite_and_bounded_for_extreme_inputs(mass, velocity, stiffness):
-    model = build({"mass_kg": mass, "stiffness": stiffness, "duration_ms": 200.0})
+    model = build({"mass_kg": mass, "stiffness": stiffness, "duration_ms": 200.0, "max_velocity_mps": 20.0})
     s = model.render(Impact("wood-beam", velocity))
     assert np.all(np.isfinite(s.samples))
     # the helmet (3.5 kg) cannot be accelerated beyond what the object's momentum allows per sample
@@ -95,7 +96,7 @@ def test_effect_file_with_contact_model_plays_to_memory(write_effect):
     from hapticfx.pipeline import Pipeline
 
     path = write_effect({"name": "c", "object": "steel-plate", "velocity_mps": 4.0,
-                         "model": {"type": "contact"}, "actuator": {"type": "memory"}})
+                         "model": {"type": "contact", "table": False}, "actuator": {"type": "memory"}})
     with Pipeline.from_effect(path) as p:
         d = p.impact(velocity=4.0)
     assert d.profile.n_samples == 500 and d.profile.peak > 0
@@ -108,7 +109,7 @@ def test_playing_a_contact_effect_imports_no_heavy_dependency(tmp_path):
     import sys
 
     effect = tmp_path / "c.yaml"
-    effect.write_text("name: c\nobject: wood-beam\nmodel: {type: contact}\nactuator: {type: memory}\n")
+    effect.write_text("name: c\nobject: wood-beam\nmodel: {type: contact, table: false}\nactuator: {type: memory}\n")
     code = (f"from hapticfx.pipeline import Pipeline\n"
             f"with Pipeline.from_effect({str(effect)!r}) as p:\n    p.impact(velocity=3.0)\n"
             "import json, sys\nprint(json.dumps(sorted(sys.modules)))\n")

@@ -14,9 +14,9 @@ from ..progress import Progress
 from ..timing import Timing, ms, table
 
 # The falling brick in every model the project ships, and a contact-model family.
-DEFAULT_EFFECTS = ("effects/falling_brick_kinetic.yaml", "effects/falling_brick_linear.yaml",
-                   "effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml",
-                   "effects/families/tapping.yaml")
+def default_effects() -> list[Path]:
+    """Every shipped effect: the falling objects in every model, then the contact-model families."""
+    return sorted(Path("effects").glob("*.yaml")) + sorted(Path("effects/families").glob("*.yaml"))
 STAGES = ("model", "shaping", "limiter", "whole render", "head: spread", "head: site limiters", "render + head")
 HEAD_SCENE = Path("scenes/helmet_4.yaml")  # a head of four actuators, as the effects: from the repository root
 
@@ -69,8 +69,8 @@ def _time_stages(pipeline, velocity: float, head: _Head, point) -> tuple[float, 
 
 
 def render(
-    effects: Optional[list[Path]] = typer.Argument(None, help="Effect files (default: the falling brick with every "
-                                                  "shipped model, and the tapping family on the contact model)."),
+    effects: Optional[list[Path]] = typer.Argument(None, help="Effect files (default: every shipped effect, the "
+                                                  "falling objects in every model and the impact families)."),
     repeats: int = typer.Option(200, "--repeats", min=5, help="Timed renders per effect."),
     direct: bool = typer.Option(True, "--direct/--no-direct", help="Also time the ConvBiLSTM by direct inference "
                                 "(needs torch)."),
@@ -80,7 +80,7 @@ def render(
     (the spatialiser and a limiter per actuator); median and p99, ratios to the first."""
     from ..pipeline import Pipeline
 
-    paths = [Path(p) for p in (effects or DEFAULT_EFFECTS)]
+    paths = [Path(p) for p in (effects or default_effects())]
     missing = [str(p) for p in paths if not p.is_file()]
     if missing:
         raise HapticfxError(f"effect file(s) not found: {', '.join(missing)} (run from the repository root or "

@@ -1,4 +1,4 @@
-"""Built-in physics plugin of hapticfx: the ``contact`` model, ``data synth`` and ``bench contact``."""
+"""Built-in physics plugin of hapticfx: the ``contact`` model, ``data synth``, ``bench contact`` and ``bench physics``."""
 
 from ..hookspecs import hookimpl
 from ..registry import lazy

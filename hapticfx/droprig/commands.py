@@ -1,4 +1,4 @@
-"""The ``hapticfx data synth`` and ``hapticfx bench contact`` commands."""
+"""The ``hapticfx data synth``, ``hapticfx bench contact``, ``bench synth``, ``bench physics`` and ``bench families`` commands."""
 
 from __future__ import annotations
 
@@ -148,7 +148,34 @@ def bench_synth(
     typer.echo(synth_bench.table(rows))
 
 
+def bench_physics(
+    effects: Optional[list[Path]] = typer.Argument(None, help="Effect files on the contact model (default: every "
+                                                   "shipped family in effects/families/)."),
+    velocities: int = typer.Option(10000, "--velocities", min=1, help="Random velocities per effect, uniform over "
+                                   "the table's knots (each one integrated directly)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random velocities."),
+):
+    """Velocity tables of the physics models: the largest difference from direct integration at random velocities
+    (relative to the peak at each), the time each took to build and its size; direct integration and table
+    lookups timed per impact (the lookup before shaping)."""
+    from ..bench import physics
+
+    typer.echo(physics.run(effects, velocities=velocities, seed=seed))
+
+
+def bench_families(
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Also write the four families' spectra (PNG) here."),
+):
+    """Each impact family against the published quantities it must match: quantity, source, range, rendered
+    value (docs/families.md)."""
+    from ..bench import families
+
+    typer.echo(families.run(plot))
+
+
 def register(bench: typer.Typer, data: typer.Typer) -> None:
+    bench.command("physics")(bench_physics)
+    bench.command("families")(bench_families)
     data.command("synth")(synth)
     bench.command("synth")(bench_synth)
     bench.command("contact")(bench_contact)

@@ -3,7 +3,7 @@
 The falling object is a rectangle (half-width ``a`` in the plane of the drop,
 half-thickness ``b``) with position, tilt and their rates; the helmet top is a
 circular dome of radius ``R`` whose crown can bounce vertically on its support
-and rock about a pivot on the floor (see :mod:`hapticfx.droprig.helmet`). The
+and rock about a pivot on the floor (see :mod:`hapticfx.droprig.receiver`). The
 contact force follows Hunt and Crossley (1975)::
 
     F = k * delta**1.5 * (1 + alpha * d(delta)/dt),   F >= 0
@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import SignalError
 from ..signal import valid_number
-from .helmet import Helmet
+from .receiver import Receiver
 from .hertz import G
 from .state import BE, JT, JY, N_RIGID, OM, TH, VB, VH, VX, VY, X, Y, YH
 
@@ -104,7 +104,7 @@ class DropScene:
     """
 
     block: Block
-    helmet: Helmet
+    helmet: Receiver
     stiffness: float
     damping: float
     velocity: float
@@ -212,7 +212,9 @@ class DropScene:
 
     def scales(self) -> np.ndarray:
         """Typical magnitude of each state, for absolute tolerances."""
-        v = max(self.velocity, 0.05)
+        # tolerances relative to the impact itself down to 1 mm/s (below, absolute: a 1e-9 m/s touch on k = 1e10 would
+        # take minutes), or to what a pressing force does in 1 ms
+        v = max(self.velocity, 1e-3, self.gravity * 1e-3)
         imp = self.block.mass * v
         sc = np.empty(self.n_state)
         sc[[X, Y]] = self.block.half_width + self.block.half_thickness

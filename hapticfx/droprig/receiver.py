@@ -1,6 +1,10 @@
-"""The helmet of the drop rig as a few damped modes, and its acceleration at the sensor.
+"""The struck body (the receiver) as a few damped modes, and its acceleration at the sensor.
 
-The helmet sits on the floor. Its response to the contact force:
+One model serves every struck body: the drop rig's helmet, and the receivers of
+the impact families (:data:`RECEIVERS`: a tabletop, a bat's handle, a car seat,
+a boot). The ``contact`` model and ``hapticfx data synth`` both take a
+:class:`Receiver`. It sits on a support (the floor, the legs of a table, the
+hands on a bat, a car's suspension). Its response to the contact force:
 
 * a vertical bounce of the whole helmet on its support: a Hunt-Crossley contact
   with the floor (compressed statically by the helmet's weight), so the bounce
@@ -10,17 +14,18 @@ The helmet sits on the floor. Its response to the contact force:
 * a few shell modes, each driven by the contact force times its mode shape
   ``cos(order * phi)`` at the contact angle ``phi`` on the dome.
 
-The sensor is at the crown, inside, on the suspension: it sees the shell modes
-only weakly (small participation). Masses and frequencies are chosen (not
-measured) so that the paper's objects at 2.4-5.2 m/s give a few g at the
-sensor, the heaviest drops reaching the +-3.6 g range of an ADXL335.
+For the helmet, the sensor is at the crown, inside, on the suspension: it sees
+the shell modes only weakly (small participation). Masses and frequencies are
+chosen (not measured) so that the paper's objects at 2.4-5.2 m/s give a few g at
+the sensor, the heaviest drops reaching the +-3.6 g range of an ADXL335. The
+other receivers' values are chosen too (docs/families.md says from what).
 """
 
 from __future__ import annotations
 
 import math
 from functools import lru_cache
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -42,8 +47,10 @@ class ShellMode:
 
 
 @dataclass(frozen=True)
-class Helmet:
-    """A helmet on the floor: rigid bounce and rocking, shell modes, dome geometry, sensor mount."""
+class Receiver:
+    """A struck body on its support: effective mass, rigid bounce and rocking on the support, modes (frequency,
+    damping ratio, modal mass, shape order, participation at the sensor), the struck surface's radius and the
+    sensor's mount. The defaults are the drop rig's helmet on the floor."""
 
     mass: float = 3.5
     support_hz: float = 22.0
@@ -121,6 +128,11 @@ class Helmet:
         helmet_frame = np.stack([lateral * math.cos(azimuth), lateral * math.sin(azimuth), vertical], axis=-1)
         return helmet_frame @ self.mount_rotation().T
 
+    def normal_acceleration(self, states: np.ndarray, rate_hz: float) -> np.ndarray:
+        """Acceleration (m/s^2) along the impact's normal (up) at the sensor point, ``(N,)``: what a hand or body
+        on the receiver feels, the sensor's tilt and axes left out."""
+        return replace(self, mount_tilt_deg=(0.0, 0.0)).sensor_acceleration(states, rate_hz)[:, 2]
+
 
 @lru_cache(maxsize=64)
 def _mode_filter(mode: ShellMode, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -135,3 +147,35 @@ def _mode_filter(mode: ShellMode, dt: float) -> tuple[np.ndarray, np.ndarray]:
     ad, bd, cd, dd, _ = cont2discrete((a, b, c, d), dt, method="zoh")
     num, den = ss2tf(ad, bd, cd, dd)
     return num[0], den
+
+
+def _receiver(mass, support_hz, support_damping, dome_radius, modes, **rest) -> Receiver:
+    return Receiver(mass=mass, support_hz=support_hz, support_damping=support_damping, dome_radius=dome_radius,
+                    modes=tuple(ShellMode(hz, zeta, m, 1, 0.0, vertical) for hz, zeta, m, vertical in modes), **rest)
+
+
+# The shipped receivers. The helmet is the drop rig's; the others are chosen (not measured) for what each family
+# renders: docs/families.md gives the reasoning and the published values each family is checked against.
+RECEIVERS: dict[str, Receiver] = {
+    "helmet": Receiver(),
+    # a wooden tabletop on four legs, struck near its middle: plate modes ringing for a few hundred ms
+    "tabletop": _receiver(5.0, 35.0, 1.0, 1.0, ((95.0, 0.02, 2.0, 0.9), (240.0, 0.015, 3.0, 0.5)),
+                          rocking_hz=12.0, rocking_zeta=0.05, pivot_height=0.75, sensor_height=0.74),
+    # the bat's effective mass at the sweet spot, held in the hands (a soft support), its bending modes
+    "bat-handle": _receiver(0.9, 8.0, 3.0, 0.035, ((170.0, 0.03, 3.0, 0.3), (560.0, 0.03, 4.0, 0.15)),
+                            rocking_hz=3.0, rocking_zeta=0.3, pivot_height=0.6, sensor_height=0.55),
+    # a car body's corner on its suspension, felt in the seat: body and seat modes
+    "car-seat": _receiver(100.0, 1.3, 4.0, 0.33, ((4.5, 0.45, 60.0, 1.2), (13.0, 0.12, 40.0, 0.4)),
+                          rocking_hz=1.1, rocking_zeta=0.3, pivot_height=0.5, sensor_height=0.5),
+    # a foot in a boot, the leg behind it: the sole's and the foot's modes
+    # (the struck surface's radius larger than the ball's 10 cm of compression at 40 m/s)
+    "boot": _receiver(1.2, 12.0, 2.5, 0.2, ((55.0, 0.2, 0.6, 0.8), (150.0, 0.12, 0.8, 0.4)),
+                      rocking_hz=6.0, rocking_zeta=0.3, pivot_height=0.45, sensor_height=0.1),
+}
+
+
+def named_receiver(name: str) -> Receiver:
+    """A shipped receiver by name (KeyError names the known ones)."""
+    if name not in RECEIVERS:
+        raise KeyError(f"unknown receiver {name!r}; shipped: {', '.join(RECEIVERS)}")
+    return RECEIVERS[name]

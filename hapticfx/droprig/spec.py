@@ -27,7 +27,7 @@ from ..effect import read_yaml
 from ..errors import EffectError
 from ..objects import ObjectInfo
 from .contact import MATERIALS
-from .helmet import Helmet, ShellMode
+from .receiver import Receiver, ShellMode
 from .sensor import Accelerometer
 from .synth import BUILTIN_DROPS, BUILTIN_SEED, Rig
 
@@ -103,7 +103,7 @@ def load_spec(path: Path) -> SynthSpec:
     source = str(path)
     data = _check_keys(read_yaml(Path(path)), ["name", "seed", "drops", "rig", "objects"], source, "spec")
     rig_cfg = _check_keys(data.get("rig") or {}, ["helmet", "sensor"], source, "rig")
-    helmet = Helmet(**_fields(Helmet, rig_cfg.get("helmet") or {}, source, "rig.helmet",
+    helmet = Receiver(**_fields(Receiver, rig_cfg.get("helmet") or {}, source, "rig.helmet",
                               nested={"modes": lambda v, k: _modes(v, source, k)}))
     sensor = Accelerometer(**_fields(Accelerometer, rig_cfg.get("sensor") or {}, source, "rig.sensor"))
     objects, velocities = [], {}

@@ -5,7 +5,7 @@ given velocity with a slightly varying pose (:class:`Variation`; the thin
 steel plate varies most, as the paper observed); the contact is integrated
 with a Hunt-Crossley law (:mod:`hapticfx.droprig.contact`), rebounds and
 secondary impacts included; the helmet answers with its modes
-(:mod:`hapticfx.droprig.helmet`); an ADXL335-like sensor behind a 14-bit DAQ
+(:mod:`hapticfx.droprig.receiver`); an ADXL335-like sensor behind a 14-bit DAQ
 records it at 1 kHz with gravity, clipping and noise (:mod:`hapticfx.droprig.sensor`).
 
 :func:`record_drops` makes ``(V, D, N, 3)`` raw recordings for one object;
@@ -30,7 +30,7 @@ from ..errors import DatasetError
 from ..objects import PAPER_OBJECTS, ObjectInfo
 from ..signal import valid_number, valid_signal
 from .contact import Block, DropScene, material
-from .helmet import Helmet
+from .receiver import Receiver
 from .sensor import Accelerometer
 
 PAPER_VELOCITIES = (2.42, 2.80, 3.13, 3.43, 3.70, 3.96, 4.20, 4.43, 4.65, 4.85, 5.05, 5.24)
@@ -64,7 +64,7 @@ class Variation:
 class Rig:
     """The simulated rig: helmet, sensor, grid and integrator settings."""
 
-    helmet: Helmet = field(default_factory=Helmet)
+    helmet: Receiver = field(default_factory=Receiver)
     sensor: Accelerometer = field(default_factory=Accelerometer)
     fine_rate_hz: float = 20000.0
     n_samples: int = 700
@@ -95,7 +95,7 @@ class Drop:
     damping: float | None = None
 
 
-def scene_for(info: ObjectInfo, drop: Drop, helmet: Helmet) -> DropScene:
+def scene_for(info: ObjectInfo, drop: Drop, helmet: Receiver) -> DropScene:
     """The contact scene of ``drop`` for object ``info`` (material defaults from its table)."""
     mat = material(info.material)
     return DropScene(

@@ -5,18 +5,23 @@ from __future__ import annotations
 import math
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from ..errors import EffectError
-from ..interfaces import Impact, Model
+from ..errors import EffectError, SignalError
+from ..interfaces import Impact, Model, Terms
 from ..objects import PAPER_OBJECTS, ObjectInfo, known_object
 from ..params import BuildContext, doc
 from ..signal import Signal
 
+if TYPE_CHECKING:
+    from .physics_table import PhysicsTable
+
 
 FINE_RATE_HZ = 20000.0  # the contact and the helmet's modes are resolved on this grid, then averaged
+RTOL = 1e-9  # of the integration, for tables and direct renders alike (solver noise well under 1e-6 of the peak)
 
 
 class ContactModel(Model):
@@ -53,18 +58,33 @@ class ContactModel(Model):
             "Hunt-Crossley damping alpha (s/m); default from the material", min=0.0, max=10.0))
         tilt_deg: float = field(default=0.0, metadata=doc("tilt of the object at contact (degrees)", min=-60.0, max=60.0))
         offset_mm: float = field(default=0.0, metadata=doc("contact point offset from the crown (mm)", min=-80.0, max=80.0))
-        helmet_mass_kg: float = field(default=3.5, metadata=doc("effective mass of the helmet on the floor (kg)", min=0.1, max=100.0))
+        receiver: str = field(default="helmet", metadata=doc(
+            "the struck body: helmet, tabletop, bat-handle, car-seat, boot (docs/families.md)"))
+        receiver_mass_kg: float | None = field(default=None, metadata=doc(
+            "effective mass of the struck body (kg); default: the receiver's own", min=0.1, max=1000.0))
+        felt: Literal["sensor", "receiver", "striker"] = field(default="sensor", metadata=doc(
+            "what is rendered: sensor (the receiver's 3-axis sensor, reduced with `reducer`), receiver (the struck "
+            "body's acceleration along the impact, where it is held) or striker (the striking body's, e.g. a "
+            "fingertip or stylus that taps)"))
         mass_kg: float | None = field(default=None, metadata=doc("object mass; default: the effect's object", min=1e-3, max=1e4))
-        reducer: str = field(default="max-min", metadata=doc("3-axis to 1D reducer (a registered reducer)"))
+        hold_n: float = field(default=0.0, metadata=doc(
+            "force pressing the striker onto the receiver (N): a held stylus or fingertip stays in contact and rings "
+            "on it; what the press alone does (velocity 0) is subtracted", min=0.0, max=1000.0))
+        reducer: str = field(default="max-min", metadata=doc("3-axis to 1D reducer (a registered reducer; felt: sensor)"))
         duration_ms: float = field(default=500.0, metadata=doc("length of the rendered profile (ms)", min=10.0, max=5000.0))
         pre_ms: float = field(default=10.0, metadata=doc("silence before the first contact (ms)", min=0.0, max=1000.0))
         rate_hz: float = field(default=1000.0, metadata=doc("sample rate of the profile (Hz)", min=100.0, max=96000.0))
+        max_velocity_mps: float = field(default=10.0, metadata=doc(
+            "highest impact velocity rendered (m/s); a faster impact is an error", min=1e-3, max=100.0))
+        table: bool = field(default=True, metadata=doc(
+            "serve impacts from a velocity table built once (true), or integrate the contact at every impact"))
 
     def __init__(self, params: Params, context: BuildContext):
         import scipy.integrate  # noqa: F401 -- loaded when the effect is built, not on its first impact (~1 s)
         import scipy.signal  # noqa: F401
 
         from ..droprig.contact import MATERIALS
+        from ..droprig.receiver import RECEIVERS
         from ..registry import get_registry
 
         self.params = params
@@ -72,6 +92,9 @@ class ContactModel(Model):
         if params.material is not None and params.material not in MATERIALS:
             raise EffectError(f"unknown material {params.material!r}; known: {', '.join(MATERIALS)}",
                               source=context.source, key="model.material")
+        if params.receiver not in RECEIVERS:
+            raise EffectError(f"unknown receiver {params.receiver!r}; shipped: {', '.join(RECEIVERS)}",
+                              source=context.source, key="model.receiver")
         if params.pre_ms >= params.duration_ms:
             raise EffectError(f"pre_ms {params.pre_ms} must be shorter than duration_ms {params.duration_ms}",
                               source=context.source, key="model.pre_ms")
@@ -81,6 +104,8 @@ class ContactModel(Model):
         self.reducer = get_registry().create("reducer", params.reducer)
         self._cache: OrderedDict[tuple[str, float], np.ndarray] = OrderedDict()
         self._lock = threading.Lock()
+        self._tables: dict[str, "PhysicsTable"] = {}
+        self._press: dict[str, np.ndarray] = {}  # per object: what the hold force alone does
 
     def object_for(self, object_id: str) -> ObjectInfo:
         p = self.params
@@ -99,7 +124,6 @@ class ContactModel(Model):
         from the first contact; ``lead`` fine samples of silence come before it.
         """
         from ..droprig.contact import material
-        from ..droprig.helmet import Helmet
         from ..droprig.synth import Drop, scene_for
 
         p = self.params
@@ -110,25 +134,96 @@ class ContactModel(Model):
         drop = Drop(velocity, tilt=math.radians(p.tilt_deg), offset=p.offset_mm * 1e-3,
                     stiffness=p.stiffness if p.stiffness is not None else mat.stiffness,
                     damping=p.damping if p.damping is not None else mat.damping)
-        scene = replace(scene_for(info, drop, Helmet(mass=p.helmet_mass_kg)), gap=0.0, gravity=0.0)
+        scene = replace(scene_for(info, drop, self.receiver_model()), gap=0.0, gravity=p.hold_n / info.mass_kg)
         return scene, fine_rate, n * over, min(n * over, int(round(p.pre_ms / 1000.0 * fine_rate)))
 
-    def _profile(self, info: ObjectInfo, velocity: float) -> np.ndarray:
+    def receiver_model(self):
+        """The struck body: the named receiver, with its effective mass overridden where the effect says so."""
+        from ..droprig.receiver import named_receiver
+
+        r = named_receiver(self.params.receiver)
+        return r if self.params.receiver_mass_kg is None else replace(r, mass=self.params.receiver_mass_kg)
+
+    @property
+    def n_samples(self) -> int:
+        p = self.params
+        return max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
+
+    def _raw(self, info: ObjectInfo, velocity: float) -> np.ndarray:
+        """What is felt at ``velocity`` by integrating the contact, in g: ``(N,)``, or ``(N * 3,)`` for the
+        3-axis sensor (time-major) before its reducer; with a hold force, less what the press alone does."""
+        out = self._integrated(info, velocity)
+        if self.params.hold_n > 0.0 and velocity > 0.0:
+            if info.id not in self._press:
+                self._press[info.id] = self._integrated(info, 0.0)
+            out = out - self._press[info.id]
+        return out
+
+    def _integrated(self, info: ObjectInfo, velocity: float) -> np.ndarray:
         from ..droprig.hertz import G
+        from ..droprig.state import JY
 
         p = self.params
-        n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
-        if velocity == 0.0:
-            return np.zeros(n)
+        n, axes = self.n_samples, 3 if p.felt == "sensor" else 1
+        if velocity == 0.0 and p.hold_n == 0.0:
+            return np.zeros(n * axes)
         scene, fine_rate, n_fine, lead = self.scene(info, velocity)
-        acc = np.zeros((n_fine, 3))
+        acc = np.zeros((n_fine, axes))
         if lead < n_fine:
-            states = scene.sample(n_fine - lead, fine_rate)
-            acc[lead:] = scene.helmet.sensor_acceleration(states, fine_rate)
-        block = acc.reshape(n, n_fine // n, 3).mean(axis=1)
-        return self.reducer.reduce(block / G)
+            states = scene.sample(n_fine - lead, fine_rate, rtol=RTOL)
+            if p.felt == "sensor":
+                acc[lead:] = scene.helmet.sensor_acceleration(states, fine_rate)
+            elif p.felt == "receiver":
+                acc[lead:, 0] = scene.helmet.normal_acceleration(states, fine_rate)
+            else:  # the striker: the contact force on it (averaged over each fine sample) over its mass
+                force = np.diff(states[JY], prepend=0.0) * fine_rate
+                acc[lead:, 0] = force / scene.block.mass
+        return (acc.reshape(n, n_fine // n, axes).mean(axis=1) / G).reshape(-1)
+
+    def _finish(self, raw: np.ndarray) -> np.ndarray:
+        return self.reducer.reduce(raw.reshape(-1, 3)) if self.params.felt == "sensor" else raw
+
+    def _profile(self, info: ObjectInfo, velocity: float) -> np.ndarray:
+        """The profile at ``velocity`` by integrating the contact."""
+        return self._finish(self._raw(info, velocity))
+
+    def spec(self, info: ObjectInfo) -> dict:
+        """Everything a profile of ``info`` depends on, for the table's hash."""
+        p = self.params
+        receiver = asdict(self.receiver_model())
+        return {"model": self.name, "params": {k: v for k, v in asdict(p).items() if k not in ("table", "reducer")},
+                "receiver": receiver, "object": asdict(info), "fine_rate_hz": FINE_RATE_HZ, "rtol": RTOL}
+
+    def table_for(self, info: ObjectInfo, *, progress=None) -> "PhysicsTable":
+        """The velocity table of ``info`` (loaded, or built and cached at first use; ``progress(message)``)."""
+        from .physics_table import load_or_build
+
+        table = self._tables.get(info.id)
+        if table is None:
+            p = self.params
+            table = load_or_build(info.id, lambda v: self._raw(info, v), v_max=p.max_velocity_mps,
+                                  rate_hz=p.rate_hz, spec=self.spec(info), reducer=f"felt:{p.felt}",
+                                  shipped=self.context.base_dir / "tables", progress=progress)
+            self._tables[info.id] = table
+        return table
+
+    def terms(self, impact: Impact) -> Terms | None:
+        """From the table, as a weighted sum of shaped-once atoms; None for the 3-axis sensor (its reducer is not
+        linear) and for direct integration."""
+        if not self.params.table or self.params.felt == "sensor":
+            return None
+        return self.table_for(self.object_for(impact.object)).terms(impact.velocity)
+
+    def atoms(self) -> Terms | None:
+        if not self.params.table or self.params.felt == "sensor":
+            return None
+        return self.table_for(self.object_for(self.context.object_id)).atoms()
 
     def render(self, impact: Impact) -> Signal:
+        if self.params.table:
+            raw = self.table_for(self.object_for(impact.object)).terms(impact.velocity).profile().samples
+            return Signal(self._finish(raw), self.params.rate_hz)
+        self._check_range(impact.velocity)
         info = self.object_for(impact.object)
         key = (info.id, float(impact.velocity))
         with self._lock:
@@ -143,6 +238,11 @@ class ContactModel(Model):
                     self._cache.popitem(last=False)
         return Signal(cached, self.params.rate_hz)
 
+    def _check_range(self, velocity: float) -> None:
+        if velocity > self.params.max_velocity_mps:
+            raise SignalError(f"velocity {velocity:g} m/s is past this effect's range (0 to "
+                              f"{self.params.max_velocity_mps:g} m/s); raise model.max_velocity_mps to render it")
+
     def describe(self) -> dict:
         from ..droprig.contact import material
 
@@ -152,4 +252,6 @@ class ContactModel(Model):
         return {"model": self.name, "material": mat.name,
                 "stiffness": p.stiffness if p.stiffness is not None else mat.stiffness,
                 "damping": p.damping if p.damping is not None else mat.damping,
-                "reducer": p.reducer, "rate_hz": p.rate_hz}
+                "reducer": p.reducer, "rate_hz": p.rate_hz, "max_velocity_mps": p.max_velocity_mps,
+                **({"served_from": {k: t.describe() for k, t in self._tables.items()}} if self._tables else
+                   {"served_from": "direct integration" if not p.table else "a table built at first use"})}
