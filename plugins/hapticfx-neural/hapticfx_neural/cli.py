@@ -97,8 +97,11 @@ def simulate(
 ):
     """Simulate drop sets for pre-training: random rigs and objects from written-down ranges, dense velocity grids.
 
-    The ranges are in hapticfx_neural/pretrain/draws.py (docs/neural.md); each rig is written as a
-    `hapticfx data synth --spec` file under OUT/specs and simulated into OUT/pretrain-<k>.
+    Rigs and objects come from the core's ranges (hapticfx.droprig.draws), every object on its own
+    16-velocity grid every 0.05 m/s with 5 drops, seeds 7000000 + k (never a held-out set's; see
+    hapticfx_neural/pretrain/draws.py and docs/neural.md). Each rig is written as a
+    `hapticfx data synth --spec` file under OUT/specs and simulated into OUT/pretrain-<k>; train on
+    them with `dataset: [OUT/pretrain-0, ...]` and fine-tune with `init:`.
     """
     import time
 
