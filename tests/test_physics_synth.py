@@ -57,7 +57,10 @@ def test_parallel_simulation_through_joblib_gives_the_serial_arrays():
     said = []
     parallel = record_drops(info, [2.42, 4.43], 2, seed=5, workers=2, progress=said.append)
     assert np.array_equal(serial, parallel)
-    assert len(said) == 2 and "4.43 m/s done (4/4 drops)" in said[-1]  # in order, one line per velocity
+    # at once, before the first drop (workers starting and the first velocity take seconds); then in order,
+    # one line per velocity
+    assert said[0] == "concrete-brick: simulating 4 drops at 2 velocities in 2 process(es)"
+    assert len(said) == 3 and "4.43 m/s done (4/4 drops)" in said[-1]
 
 
 def test_bad_velocities_and_drops_are_clear_errors():

@@ -198,6 +198,9 @@ def record_drops(info: ObjectInfo, velocities, n_drops: int, *, seed: int, rig: 
     seeds = noise_seed.generate_state(len(v) * n_drops).reshape(len(v), n_drops)
     jobs = [(info, plan[i][j], rig, int(seeds[i, j])) for i in range(len(v)) for j in range(n_drops)]
     say = progress or (lambda message: None)
+    # at once: the first velocity's drops (and the worker processes' start) take seconds
+    say(f"{info.id}: simulating {len(jobs)} drops at {len(v)} velocities in "
+        f"{min(resolve_workers(workers), len(jobs))} process(es)")
     results = []
     for k, r in enumerate(_run_jobs(jobs, workers)):
         results.append(r)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from hapticfx.data.dataset import open_dataset
 from hapticfx.errors import DatasetError
+from hapticfx.progress import say
 
 from .config import TrainConfig
 from .samples import DropTriples, concat, drop_triples, object_pools
@@ -88,6 +89,10 @@ def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool 
     _, meta = train_network(cfg.interpolator, cfg.model, cfg.training, data, dataset_meta=meta_ds, out=out,
                             resume=resume, progress=progress, label=f"train {cfg.interpolator}", init=init)
     weights = out / "model.safetensors"
-    if len(datasets) == 1:
-        write_table(weights, datasets[0])
+    if len(datasets) == 1:  # tabulating the network takes most of a short run: told object by object
+        tell = say if progress else None
+        if tell:
+            tell(f"velocity table: tabulating the network between recorded velocities, "
+                 f"{len(datasets[0].objects)} objects")
+        write_table(weights, datasets[0], progress=tell)
     return meta, weights
