@@ -51,3 +51,10 @@ def test_pretraining_draws_are_reproducible_valid_specs_on_dense_grids_with_thei
             assert RANGES["v_min_mps"][0] <= vs[0] and vs[-1] <= RANGES["v_max_mps"][1]
     with pytest.raises(DatasetError, match="reserved for the held-out evaluation sets"):
         draw_spec(0, seed=HELDOUT_DRAW_SEEDS.start)
+
+
+def test_bench_threads_default_config_is_the_shipped_one():
+    from hapticfx_neural.bench.threads import SHIPPED_CONFIG
+    from hapticfx_neural.config import load_config
+
+    assert SHIPPED_CONFIG.is_file() and load_config(SHIPPED_CONFIG).interpolator == "convbilstm"
