@@ -22,7 +22,7 @@ def check(model, object_id: str, velocities: np.ndarray, progress=None) -> dict:
         t0 = time.perf_counter()
         ref = model._profile(info, float(v))
         t1 = time.perf_counter()
-        got = model._finish(tab.terms(float(v)).profile().samples)
+        got = model._finish(tab.profile(float(v)))
         table_s += time.perf_counter() - t1
         direct_s += t1 - t0
         peak = float(np.max(np.abs(ref)))
@@ -34,7 +34,7 @@ def check(model, object_id: str, velocities: np.ndarray, progress=None) -> dict:
     n = len(velocities)
     half = 0.5 * float(tab.velocities[0])  # below the knots: the first knot's profile scaled
     ref = model._profile(info, half)
-    below = float(np.max(np.abs(model._finish(tab.terms(half).profile().samples) - ref)) / np.max(np.abs(ref)))
+    below = float(np.max(np.abs(model._finish(tab.profile(half)) - ref)) / np.max(np.abs(ref)))
     return {"worst": worst, "at": at, "below": below, "direct_ms": 1e3 * direct_s / n, "table_ms": 1e3 * table_s / n,
             "build_s": tab.table.meta.get("build_s"), "knots": len(tab.velocities), "nodes": tab.table.n_nodes,
             "v_floor": float(tab.velocities[0]), "v_max": tab.v_max}

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from ..errors import EffectError, SignalError
-from ..interfaces import Impact, Model, Terms
+from ..interfaces import Impact, Model
 from ..objects import PAPER_OBJECTS, ObjectInfo, known_object
 from ..params import BuildContext, doc
 from ..signal import Signal
@@ -207,21 +207,11 @@ class ContactModel(Model):
             self._tables[info.id] = table
         return table
 
-    def terms(self, impact: Impact) -> Terms | None:
-        """From the table, as a weighted sum of shaped-once atoms; None for the 3-axis sensor (its reducer is not
-        linear) and for direct integration."""
-        if not self.params.table or self.params.felt == "sensor":
-            return None
-        return self.table_for(self.object_for(impact.object)).terms(impact.velocity)
-
-    def atoms(self) -> Terms | None:
-        if not self.params.table or self.params.felt == "sensor":
-            return None
-        return self.table_for(self.object_for(self.context.object_id)).atoms()
-
+    # No terms(): a table's profile is one small matrix product at the profile's rate, then shaped once per impact;
+    # shaping each of a table's hundreds of rows ahead at the device's rate would hold tens of MB per effect.
     def render(self, impact: Impact) -> Signal:
         if self.params.table:
-            raw = self.table_for(self.object_for(impact.object)).terms(impact.velocity).profile().samples
+            raw = self.table_for(self.object_for(impact.object)).profile(impact.velocity)
             return Signal(self._finish(raw), self.params.rate_hz)
         self._check_range(impact.velocity)
         info = self.object_for(impact.object)

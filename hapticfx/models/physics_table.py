@@ -25,9 +25,8 @@ folder (``$HAPTICFX_CACHE_DIR``, else ``$XDG_CACHE_HOME/hapticfx``, else
 ``~/.cache/hapticfx``) under ``physics/<sha>.npz``, or ship next to an effect in
 ``tables/<sha>.npz``.
 
-An impact renders as :class:`~hapticfx.interfaces.Terms` of the knots' profiles
-and the table's nodes, which a pipeline shapes once: an impact costs a weighted
-sum at the device rate.
+An impact costs a blend of two knots' profiles and one small matrix product at
+the profile's rate; the pipeline then shapes it.
 """
 
 from __future__ import annotations
@@ -44,7 +43,6 @@ from typing import Callable
 import numpy as np
 
 from ..errors import CheckpointError, SignalError
-from ..interfaces import Term, Terms
 from ..interpolators.residual import bump, scale
 from ..interpolators.table import Interval, VelocityTable, tabulate_interval
 
@@ -100,30 +98,22 @@ class PhysicsTable:
     def source(self) -> str:
         return self.table.meta["source"]["physics_sha256"]
 
-    def terms(self, velocity: float) -> Terms:
-        """The profile at ``velocity`` as a weighted sum of the knots' profiles and the table's nodes."""
+    def profile(self, velocity: float) -> np.ndarray:
+        """The profile at ``velocity``: the knots' blend plus the interval's polynomial (one small matrix product)."""
         v = float(velocity)
         if not 0.0 <= v <= self.v_max:
             raise SignalError(f"velocity {v:g} m/s is past this effect's range (0 to {self.v_max:g} m/s); raise "
                               "model.max_velocity_mps to render it")
         knot = self.velocities
         if v <= knot[0]:
-            return Terms(self.rate_hz, (Term(("knot", self.object, 0), v / knot[0], self.profiles[0]),))
+            return (v / knot[0]) * self.profiles[0]
         i = min(int(np.searchsorted(knot, v, side="right")) - 1, len(knot) - 2)
         w = (v - knot[i]) / (knot[i + 1] - knot[i])
+        out = (1.0 - w) * self.profiles[i] + w * self.profiles[i + 1]
         k = float(bump(w)) * self._scales[i]
-        iv = self._intervals[i]
-        extra = tuple(Term(("node", self.object, i, j), k * float(c), iv.residual[j])
-                      for j, c in enumerate(iv.coefficients(w)) if c) if k else ()
-        return Terms(self.rate_hz, (Term(("knot", self.object, i), 1.0 - w, self.profiles[i]),
-                                    Term(("knot", self.object, i + 1), w, self.profiles[i + 1]), *extra))
-
-    def atoms(self) -> Terms:
-        """Every atom :meth:`terms` can name (weights unused)."""
-        items = [Term(("knot", self.object, i), 1.0, p) for i, p in enumerate(self.profiles)]
-        items += [Term(("node", self.object, i, j), 1.0, row)
-                  for i, iv in enumerate(self._intervals) for j, row in enumerate(iv.residual)]
-        return Terms(self.rate_hz, tuple(items))
+        if k:
+            out += k * self._intervals[i].at(w)
+        return out
 
     def describe(self) -> dict:
         meta = self.table.meta
