@@ -66,6 +66,7 @@ def test_a_spec_simulates_its_own_objects_and_velocities(tmp_path):
     (lambda s: s["rig"]["sensor"].update(bias_g=[0.0]), r"rig.sensor.bias_g: expected a list of 3 numbers"),
     (lambda s: s["rig"]["sensor"].update(bits=14.5), r"rig.sensor.bits: expected an integer"),
     (lambda s: s.update(drops=0), r"drops: expected an integer in \[1, 1000\]"),
+    (lambda s: s["rig"].update(receiver="anvil"), r"rig.receiver: unknown receiver 'anvil'; shipped: helmet, tabletop"),
 ])
 def test_bad_specs_name_the_file_and_key(tmp_path, change, match):
     import copy
@@ -80,3 +81,14 @@ def test_spec_and_object_options_do_not_mix(tmp_path):
     r = subprocess.run([sys.executable, "-m", "hapticfx", "data", "synth", str(tmp_path / "x"), "--spec",
                         str(_write(tmp_path, SPEC)), "--drops", "3"], capture_output=True, text=True)
     assert r.returncode == 2 and "--spec gives the objects, velocities, drops and seed" in r.stderr
+
+
+def test_a_spec_names_a_shipped_receiver_the_same_the_contact_model_uses(tmp_path):
+    import copy
+
+    from hapticfx.droprig.receiver import RECEIVERS
+
+    spec = copy.deepcopy(SPEC)
+    spec["rig"] = {"receiver": "tabletop", "helmet": {"mass": 7.0}}
+    rig = load_spec(_write(tmp_path, spec)).rig
+    assert rig.helmet.modes == RECEIVERS["tabletop"].modes and rig.helmet.mass == 7.0

@@ -6,6 +6,7 @@
     seed: 99                          # default 20230417
     drops: 10                         # per velocity, default 10
     rig:                              # every key optional; defaults: the built-in rig
+      receiver: helmet                # a shipped receiver (tabletop, bat-handle, car-seat, boot): the struck body
       helmet: {mass: 2.8, support_hz: 30, modes: [{hz: 152, zeta: 0.04, mass: 1.3,
                order: 1, lateral: 0.04, vertical: 0.06}]}
       sensor: {range_g: 6.0, sensitivity_v_per_g: 0.174}
@@ -27,7 +28,7 @@ from ..effect import read_yaml
 from ..errors import EffectError
 from ..objects import ObjectInfo
 from .contact import MATERIALS
-from .receiver import Receiver, ShellMode
+from .receiver import RECEIVERS, Receiver, ShellMode
 from .sensor import Accelerometer
 from .synth import BUILTIN_DROPS, BUILTIN_SEED, Rig
 
@@ -102,9 +103,14 @@ def load_spec(path: Path) -> SynthSpec:
     """Read and validate a simulation spec (safe YAML loader, strict keys)."""
     source = str(path)
     data = _check_keys(read_yaml(Path(path)), ["name", "seed", "drops", "rig", "objects"], source, "spec")
-    rig_cfg = _check_keys(data.get("rig") or {}, ["helmet", "sensor"], source, "rig")
-    helmet = Receiver(**_fields(Receiver, rig_cfg.get("helmet") or {}, source, "rig.helmet",
-                              nested={"modes": lambda v, k: _modes(v, source, k)}))
+    rig_cfg = _check_keys(data.get("rig") or {}, ["receiver", "helmet", "sensor"], source, "rig")
+    base = rig_cfg.get("receiver", "helmet")
+    if base not in RECEIVERS:
+        raise EffectError(f"unknown receiver {base!r}; shipped: {', '.join(RECEIVERS)}", source=source,
+                          key="rig.receiver")
+    changes = _fields(Receiver, rig_cfg.get("helmet") or {}, source, "rig.helmet",
+                      nested={"modes": lambda v, k: _modes(v, source, k)})
+    helmet = dataclasses.replace(RECEIVERS[base], **changes)  # the named receiver, with the spec's changes
     sensor = Accelerometer(**_fields(Accelerometer, rig_cfg.get("sensor") or {}, source, "rig.sensor"))
     objects, velocities = [], {}
     if not isinstance(data.get("objects"), list) or not data["objects"]:
