@@ -178,3 +178,24 @@ def test_the_command_runs_the_type_confusion_mutator_on_the_yaml_gates():
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "fuzz", "--mutator", "types", "osc"],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "unknown or uninstalled gate(s) osc for --mutator types" in r.stderr
+
+
+def test_the_hang_timer_is_disarmed_before_a_refusal_is_looked_at():
+    """A refusal that came just inside the time limit was counted while the timer still ran: on a loaded machine
+    the timer fired in the handler and ended `bench fuzz` with a traceback. A refusal whose message takes longer
+    than the limit to format shows it deterministically."""
+    import time
+
+    from hapticfx.errors import HapticfxError
+    from hapticfx.fuzz.gates import Gate
+
+    class SlowToTell(HapticfxError):
+        def __str__(self):
+            time.sleep(0.2)
+            return "refused"
+
+    def run(data, work):
+        raise SlowToTell("refused")
+
+    r = fuzz_gate(Gate("slow", lambda w: [b"x"], run), 2, time_limit_s=0.05)
+    assert (r.refused, r.hangs, r.tracebacks) == (2, 0, 0)
