@@ -141,10 +141,14 @@ def _remember(cls, mark: str, problems: list[str]) -> None:
 
 def limits_own_mix(actuator) -> bool:
     """Whether the host leaves the limit on the sum to ``actuator``: it declares ``limits_mix`` and its class
-    passed :func:`check_mix_limiter` (checked once per class in this process)."""
+    passed :func:`check_mix_limiter` (checked once per version of its code). The host asks before it opens
+    the actuator: a check that runs while a stream plays could hold the interpreter from its callbacks."""
     cls = type(actuator)
     if not getattr(cls, "limits_mix", False):
         return False
+    # the class whose mix_probe it uses: actuators sharing one mixer (a vibro-transducer and a haptuator) are
+    # checked once
+    cls = next((c for c in cls.__mro__ if "mix_probe" in vars(c)), cls)
     with _lock:
         verdict = _verdicts.get(cls)
         if verdict is None:

@@ -45,6 +45,7 @@ from .registry import Registry
 from .safety import SafetyLimiter
 from .scene import Scene, load_scene, stand_in_for
 from .signal import Signal, valid_number, valid_velocity
+from .conformance import limits_own_mix
 from .sumbound import SumBound, host_limiter
 from .spatial import Spatialiser
 
@@ -266,6 +267,9 @@ class Engine:
     def _open_outputs(self) -> None:
         opened = []
         try:
+            for out in self._outputs.values():
+                for actuator in out.actuators:  # the conformance verdicts, before any stream plays
+                    limits_own_mix(actuator)
             for out in self._outputs.values():
                 for actuator in out.actuators:
                     actuator.limits = out.limits  # what an actuator that limits its own mix holds on it

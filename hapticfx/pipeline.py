@@ -21,6 +21,7 @@ from .interfaces import Actuator, Impact, Model
 from .params import BuildContext
 from .registry import Registry, get_registry
 from .safety import LimiterReport, SafetyLimiter
+from .conformance import limits_own_mix
 from .sumbound import host_limiter
 from .shaping import ShapedAtoms, shape
 from .signal import Signal, valid_velocity
@@ -117,6 +118,7 @@ class Pipeline:
 
     def open(self) -> "Pipeline":
         if not self._opened:
+            limits_own_mix(self.actuator)  # the conformance verdict before the device plays (see adopt)
             self.actuator.open()
             self._opened = True
             self.adopt(self.actuator)

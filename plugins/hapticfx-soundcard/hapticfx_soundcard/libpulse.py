@@ -18,6 +18,7 @@ much too late.
 from __future__ import annotations
 
 import ctypes as C
+import os
 import threading
 import time
 from contextlib import contextmanager
@@ -121,8 +122,8 @@ def load():
 
 
 def sink_info(sink: str | None) -> tuple[str, int]:
-    """``(name, rate_hz)`` of the sink ``sink`` names on the PulseAudio server (None or 'default': the server's
-    default sink, as it is now): what a stream on it plays into, whatever name it was given.
+    """``(name, rate_hz)`` of the sink ``sink`` names on the PulseAudio server (None or 'default': ``PULSE_SINK``
+    if set, as for any libpulse client, else the server's default sink, as it is now): what a stream on it plays into, whatever name it was given.
     :class:`DeviceError` if the server or the sink does not answer."""
     pa = load()
     loop = pa.pa_threaded_mainloop_new()
@@ -172,7 +173,9 @@ def sink_info(sink: str | None) -> tuple[str, int]:
 
         wait(ready, "cannot reach a PulseAudio server")
         name = sink
-        if sink in (None, "", "default", "@DEFAULT_SINK@"):
+        if sink in (None, "", "default", "@DEFAULT_SINK@"):  # where libpulse sends a stream with no sink
+            name = os.environ.get("PULSE_SINK") or None
+        if name is None:
             pa.pa_operation_unref(pa.pa_context_get_server_info(context, callbacks[1], None))
             wait(lambda: "server_done" in found, "the PulseAudio server did not say its default sink")
             name = found.get("default")
