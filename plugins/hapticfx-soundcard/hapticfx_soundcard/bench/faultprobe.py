@@ -34,6 +34,7 @@ mode, server_pid = sys.argv[1], int(sys.argv[2])
 queue = float(sys.argv[3]) if len(sys.argv) > 3 else 0.0
 buffer = dict(latency=float(sys.argv[4]), max_latency=1.0) if len(sys.argv) > 4 else {}
 rate = 48000
+CAPTURE_S = 0.25
 tone = Signal(0.2 * np.sin(2 * np.pi * 100 * np.arange(2 * rate) / rate), rate)
 
 
@@ -107,11 +108,13 @@ if mode in ("stall-resume", "restart"):
                 say("recovered_s", "never")
                 break
             time.sleep(0.005)
-    with LoopbackRecorder(rate) as rec:  # the impact is heard, on the same (or the new) server
+    # the impact is heard, on the same (or the new) server; through a capture buffer that a loaded machine does
+    # not overflow (its times are the capture's clock, which the buffer does not move)
+    with LoopbackRecorder(rate, latency=CAPTURE_S) as rec:
         time.sleep(0.2)
         sent = rec.now()
         act.play(Signal(click(rate), rate))
-        time.sleep(0.4)
+        time.sleep(0.4 + CAPTURE_S)
     x, t = rec.capture.timeline(0)
     heard = onsets(x, t)
     say("heard", len(heard))
