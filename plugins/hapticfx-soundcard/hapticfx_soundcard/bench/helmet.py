@@ -105,9 +105,15 @@ def capture(scene: Path, points: list, *, object: str, velocity: float, gap_s: f
     channel_map = ",".join(CHANNEL_NAMES[:channels])
     module = _pactl("load-module", "module-null-sink", f"sink_name={sink}", f"rate={RATE_HZ}",
                     f"channels={channels}", f"channel_map={channel_map}")
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, open("/dev/zero", "rb") as zeros:
         raw = Path(tmp) / "capture.raw"
+        # A silent stream keeps the new sink running, as .ci/soundserver.sh does for its own: without it the
+        # first stream on a sink just loaded waits 0.5-1 s for the server's first request and is counted an outage.
+        keepalive = subprocess.Popen(["pacat", "--playback", "-d", sink, "--latency-msec=5", "--raw", "--format=s16le",
+                                      f"--channels={channels}", f"--channel-map={channel_map}", f"--rate={RATE_HZ}"],
+                                     stdin=zeros, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
+            time.sleep(1.0)
             with open(raw, "wb") as out:
                 recorder = subprocess.Popen(
                     ["parec", "-d", f"{sink}.monitor", "--raw", "--format=float32le", f"--channels={channels}",
@@ -123,6 +129,8 @@ def capture(scene: Path, points: list, *, object: str, velocity: float, gap_s: f
                     recorder.terminate()
                     recorder.wait(timeout=10)
         finally:
+            keepalive.terminate()
+            keepalive.wait(timeout=10)
             _pactl("unload-module", module)
         if played.returncode != 0:
             raise RuntimeError(f"the player failed: {played.stderr.strip()[-2000:]}")
