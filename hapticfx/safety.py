@@ -289,7 +289,8 @@ class SafetyLimiter:
             lo = 1.0
             for budget, first, end, _ in checks:
                 part = c1[end] - c1[first]
-                ratio = budget[part > 0] / part[part > 0]
+                with np.errstate(over="ignore"):  # a window of denormal energy: its ratio is inf, no constraint
+                    ratio = budget[part > 0] / part[part > 0]
                 if ratio.size:
                     lo = min(lo, float(np.sqrt(max(0.0, float(ratio.min())))) * (1 - 1e-9))
             self._note("rms_events", max(lo, 1e-12), self._rms_by[acting[0]] if acting else None)
