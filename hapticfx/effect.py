@@ -317,12 +317,22 @@ def _resolve(registry: Registry, kind: str, name: str, *, source: str, key: str)
         raise EffectError(str(exc), source=source, key=key) from None
 
 
+def _actuator_cls(registry: Registry, name: str, *, source: str) -> type:
+    """The registered actuator ``name``; a first-party sound-card actuator whose plugin is not installed is
+    known by its spec (hapticfx.actuators.known): it renders to files, and says what to install to play."""
+    from .actuators.known import KNOWN, spec_only
+
+    if name in KNOWN and name not in registry.names("actuator"):
+        return spec_only(name)
+    return _resolve(registry, "actuator", name, source=source, key="actuator.type")
+
+
 def check_effect(effect: Effect, *, registry: Registry | None = None) -> Plan:
     """Resolve the effect's plugins and validate their parameters; opens nothing."""
     registry = registry or get_registry()
     src = effect.source
     model_cls = _resolve(registry, "model", effect.model.type, source=src, key="model.type")
-    actuator_cls = _resolve(registry, "actuator", effect.actuator.type, source=src, key="actuator.type")
+    actuator_cls = _actuator_cls(registry, effect.actuator.type, source=src)
     model_params = parse_params(params_of(model_cls), effect.model.options, source=src, key="model")
     actuator_params = parse_params(params_of(actuator_cls), effect.actuator.options, source=src, key="actuator")
     return Plan(effect, model_cls, model_params, actuator_cls, actuator_params)

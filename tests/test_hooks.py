@@ -275,13 +275,14 @@ def test_a_missing_plugin_names_the_distribution_to_install(tmp_path):
     import sys
 
     effect = tmp_path / "e.yaml"
-    effect.write_text("name: e\nobject: concrete-brick\nmodel: {type: kinetic-energy}\nactuator: {type: vibro-transducer}\n")
+    # the solenoid: the core knows the sound-card actuators' specs (tests/test_core_only.py), not the solenoid's
+    effect.write_text("name: e\nobject: concrete-brick\nmodel: {type: kinetic-energy}\nactuator: {type: solenoid}\n")
     r = subprocess.run([sys.executable, "-m", "hapticfx", "render", str(effect), "--out", str(tmp_path / "x.wav")],
                        capture_output=True, text=True, env={**os.environ, "HAPTICFX_PLUGINS": ""})
     # the command that works: the plugins are installed from the source tree, they are not on PyPI
     root = Path(__file__).resolve().parents[1]
     assert r.returncode == 2 and len(r.stderr.splitlines()) == 1, r.stderr
-    assert f"it comes with hapticfx-soundcard: pip install {root / 'plugins' / 'hapticfx-soundcard'};" in r.stderr
+    assert f"it comes with hapticfx-solenoid: pip install {root / 'plugins' / 'hapticfx-solenoid'};" in r.stderr
 
 
 def test_outside_a_source_tree_the_hint_says_where_the_plugin_is(monkeypatch, tmp_path):

@@ -15,6 +15,7 @@ import sys
 from dataclasses import dataclass, field
 from typing import ClassVar, Literal
 
+from hapticfx.actuators.known import KNOWN
 from hapticfx.errors import DeviceError, EffectError
 from hapticfx.interfaces import Actuator, ActuatorSpec, SafetyLimits
 from hapticfx.params import BuildContext, doc
@@ -263,17 +264,13 @@ class VibroTransducer(SoundCardActuator):
     """Vibro-transducer Vp408: +-5 V input, 20-15,000 Hz response (paper Sect. 3.2)."""
 
     name = "vibro-transducer"
-    band_hz = (20.0, 15000.0)
-    volts_peak = 5.0
-    default_gain = 0.8
-    hard_limits = SafetyLimits(peak=1.0, rms=0.7)
+    band_hz, volts_peak = KNOWN[name].band_hz, KNOWN[name].volts_peak
+    default_gain, hard_limits = KNOWN[name].default_gain, KNOWN[name].hard_limits
 
 
 class Haptuator(SoundCardActuator):
     """Haptuator MM1C (Tactile Labs): +-5 V input, 30-800 Hz response (paper Sect. 3.2)."""
 
     name = "haptuator"
-    band_hz = (30.0, 800.0)
-    volts_peak = 5.0
-    default_gain = 0.6
-    hard_limits = SafetyLimits(peak=1.0, rms=0.5)
+    band_hz, volts_peak = KNOWN[name].band_hz, KNOWN[name].volts_peak
+    default_gain, hard_limits = KNOWN[name].default_gain, KNOWN[name].hard_limits
