@@ -8,23 +8,7 @@ import socket
 
 import pytest
 
-from hapticfx.study.player import StimulusPlayer
-from hapticfx.study.schedule import build_schedule
 from hapticfx.study.server import StudyServer, loopback_name, loopback_origin
-from hapticfx.study.session import Session
-from hapticfx.study.spec import load_study
-from study_files import small_study, write_study
-
-
-@pytest.fixture
-def served(tmp_path):
-    path = write_study(tmp_path, small_study(t0={"break_s": 0.0}))
-    study = load_study(path)
-    with StimulusPlayer(study, build_schedule(study, "P05"), device="memory", realtime=False) as player:
-        session = Session(study, "P05", tmp_path / "results", player, study_text=path.read_bytes())
-        with StudyServer(session) as server:
-            yield session, server, player
-        session.close()
 
 
 def _raw(server, request: bytes) -> tuple[int, dict[str, str], bytes]:

@@ -14,25 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from hapticfx.study.player import StimulusPlayer
-from hapticfx.study.schedule import build_schedule
-from hapticfx.study.server import StudyServer
-from hapticfx.study.session import Session
-from hapticfx.study.spec import load_study
-from study_files import small_study, write_study
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
-
-
-@pytest.fixture
-def served(tmp_path):
-    path = write_study(tmp_path, small_study(t0={"break_s": 0.0}))
-    study = load_study(path)
-    with StimulusPlayer(study, build_schedule(study, "P05"), device="memory", realtime=False) as player:
-        session = Session(study, "P05", tmp_path / "results", player, study_text=path.read_bytes())
-        with StudyServer(session) as server:
-            yield session, server, player
-        session.close()
 
 
 def _post(server, path, body, token=None):
