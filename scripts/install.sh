@@ -66,7 +66,7 @@ if [ "${1:-}" = "--test" ]; then
     "$PY" -m pip install -q --disable-pip-version-check "torch==2.13.0"
     echo "install: torch $("$PY" -W ignore -c 'import torch; print(torch.__version__)') from the default index ($cpu_index unreachable)"
   fi
-  extra="[test,earthquake,docs,study,perceptual,ogg]" neural="[train]"
+  extra="[test,earthquake,docs,study,ogg]" neural="[train]"
 fi
 # Playing effects needs no torch: learned interpolators are served from their velocity tables.
 "$PY" -m pip install -q --disable-pip-version-check -e ".${extra}" \

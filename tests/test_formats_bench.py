@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hapticfx.bench import vibrotactile
 from hapticfx.bench.formats import compare, measure, print_tables
+from hapticfx.evaluation import perceptual
 
 RATE = 8000.0
 
@@ -32,22 +32,18 @@ def test_the_measures_see_a_wrong_frequency_and_a_wrong_level():
     assert quiet["dominant"] == 0
 
 
-vibromaf = pytest.importorskip("vibromaf", reason="the perceptual extra (vibromaf) is not installed")
-
-
-def test_vibromaf_on_known_cases():
+def test_the_perceptual_columns_are_the_projects_measures_and_never_complex():
     x = decay()
-    assert vibrotactile.scores(x, x, RATE) == (1.0, 1.0)
-    st, sp = vibrotactile.scores(x, 0.5 * x, RATE)
-    assert sp < 0.1  # SPQI: a level change is a large loss
-    short = decay(n=400)  # 50 ms: shorter than vibromaf's 512-sample block at 2.8 kHz; padded, not refused
-    assert vibrotactile.scores(short, short, RATE) == (1.0, 1.0)
-
-
-def test_a_complex_st_sim_is_reported_as_nan():
+    same = compare(x, x.copy(), RATE)
+    assert (same["st_sim"], same["spqi"]) == (1.0, 1.0)
+    quiet = compare(x, 0.5 * x, RATE)
+    assert quiet["spqi"] < 0.5 * quiet["st_sim"]  # SPQI: a level change is a large loss; ST-SIM mostly keeps the shape
+    assert (quiet["st_sim"], quiet["spqi"]) == pytest.approx(tuple(perceptual.scores(0.5 * x, x[None], rate_hz=RATE).values()))
+    short = decay(n=400)  # 50 ms: shorter than one 512-sample block at 2.8 kHz; padded, not refused
+    assert compare(short, short.copy(), RATE)["spqi"] == 1.0
     noise = np.random.default_rng(1).standard_normal(2800)
-    st, sp = vibrotactile.scores(noise, np.roll(noise, 5), 2800.0)  # vibromaf 0.0.8 returns a complex ST-SIM here
-    assert np.isnan(st) and 0 <= sp <= 1
+    shifted = compare(noise, np.roll(noise, 5), 2800.0)  # vibromaf 0.0.8 returns a complex ST-SIM for this pair
+    assert isinstance(shifted["st_sim"], float) and 0 <= shifted["st_sim"] <= 1 and 0 <= shifted["spqi"] <= 1
 
 
 def _has(module: str) -> bool:
@@ -61,9 +57,10 @@ def test_the_bench_measures_one_effect_through_every_format(tmp_path):
 
     effect = Path(__file__).resolve().parents[1] / "effects" / "families" / "bat_ball.yaml"
     rows = measure([effect], repeats=1)
-    waveform = {"android-ogg"} if vibrotactile.available() and _has("soundfile") else set()
+    waveform = {"android-ogg"} if _has("soundfile") else set()
     assert {r.format for r in rows} - {"android-ogg"} == {"haptic", "haptic-notr", "ahap", "android", "hjif"}
     assert waveform <= {r.format for r in rows}
     assert all(r.bytes > 100 and r.export_ms > 0 and np.isfinite(r.envelope) for r in rows)
+    assert all(0 <= r.st_sim and 0 <= r.spqi <= 1 for r in rows)  # every round trip scored, none blank
     text = print_tables(rows)
     assert "bat_ball" in text and "medians over the effects" in text

@@ -11,7 +11,8 @@ same rate. Columns:
 - ``LSD``: log-spectral distance (dB, RMS over 10-500 Hz) of the two magnitude spectra, each floored
   at -60 dB of the original's peak (a synthesised carrier leaves other bands empty: without a floor
   the distance measures the floor);
-- ``ST-SIM``, ``SPQI``: hapticfx.bench.vibrotactile (blank without the ``perceptual`` extra);
+- ``ST-SIM``, ``SPQI``: hapticfx.evaluation.perceptual, the measures the interpolators are scored with
+  (at 2.8 kHz; full scale taken as 1 g);
 - ``bytes``: the file's size; ``export ms``: median time of analysis and writing (``--repeats``).
 """
 
@@ -62,8 +63,8 @@ def _spectrum(x: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
 
 def compare(x: np.ndarray, y: np.ndarray, rate_hz: float) -> dict:
     """The measures of ``y`` (a file read back) against ``x`` (the original), both at ``rate_hz``."""
+    from ..evaluation import perceptual
     from ..formats.analysis import envelope
-    from . import vibrotactile
 
     y = np.pad(y[: len(x)], (0, max(0, len(x) - len(y))))
     ex, ey = envelope(x, rate_hz), envelope(y, rate_hz)
@@ -75,10 +76,10 @@ def compare(x: np.ndarray, y: np.ndarray, rate_hz: float) -> dict:
     cy = float(np.sum(f[band] * sy[band] ** 2) / max(np.sum(sy[band] ** 2), 1e-30))
     floor = 1e-3 * max(sx[band].max(), 1e-30)
     lsd = float(np.sqrt(np.mean((20 * np.log10((sx[band] + floor) / (sy[band] + floor))) ** 2)))
-    st, sp = vibrotactile.scores(x, y, rate_hz) if vibrotactile.available() else (float("nan"), float("nan"))
+    perceived = perceptual.scores(y, x[None], rate_hz=rate_hz)
     return {"envelope": float(np.sqrt(np.mean((ex - ey) ** 2)) / max(ex.max(), 1e-12)), "dominant_hz": float(fx),
             "dominant_back_hz": float(fy), "dominant": float(abs(fy - fx) / max(fx, 1e-9)),
-            "centroid": abs(cy - cx) / max(cx, 1e-9), "lsd_db": lsd, "st_sim": st, "spqi": sp}
+            "centroid": abs(cy - cx) / max(cx, 1e-9), "lsd_db": lsd, "st_sim": perceived["stsim"], "spqi": perceived["spqi"]}
 
 
 def variants(device):
