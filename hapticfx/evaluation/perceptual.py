@@ -22,8 +22,8 @@ tests compare with it where it is right), with two corrections:
   whatever the signal's rate.
 
 Our profiles are 1 kHz and 500 samples, shorter than one block; the metrics were made for
-2.8 kHz signals. :func:`prepare` resamples to 2.8 kHz with a polyphase filter
-(``scipy.signal.resample_poly``, up 14 down 5, Kaiser-windowed FIR: no content is added
+2.8 kHz signals. :func:`prepare` resamples to 2.8 kHz with the project's polyphase filter
+(:func:`hapticfx.dsp.resample_rate`, up 14 down 5, Kaiser-windowed FIR: no content is added
 above the original 500 Hz Nyquist) and pads with zeros to whole blocks (1400 samples ->
 3 blocks; the padding is silence after the window, the same in both signals). Signals are
 in g; the threshold (dB) is taken against m/s^2, so profiles are converted first.
@@ -31,13 +31,11 @@ in g; the threshold (dB) is taken against m/s^2, so profiles are converted first
 
 from __future__ import annotations
 
-from fractions import Fraction
-
 import numpy as np
 from scipy.fft import dct
-from scipy.signal import resample_poly
 from scipy.special import ndtr
 
+from ..dsp import resample_rate
 from ..signal import valid_number, valid_signal
 
 BLOCK = 512
@@ -52,9 +50,7 @@ def prepare(profile, *, rate_hz: float) -> np.ndarray:
     """``profile`` (g, at ``rate_hz``) as the metrics take it: m/s^2 at 2.8 kHz, zero-padded to whole blocks."""
     x = valid_signal(profile, name="profile", ndim=1).astype(np.float64) * G
     rate = valid_number(rate_hz, name="rate_hz", minimum=1.0)
-    if rate != RATE_HZ:
-        ratio = Fraction(RATE_HZ / rate).limit_denominator(1000)
-        x = resample_poly(x, ratio.numerator, ratio.denominator)
+    x = resample_rate(x, rate, RATE_HZ)
     return np.pad(x, (0, -len(x) % BLOCK))
 
 
