@@ -102,16 +102,23 @@ def write_scene(folder: Path, actuators: str, effects: str, *, queue: int = 4096
     return path
 
 
-def lying_mixer(n: int = 300) -> Verdict:
-    """A plugin that declares limits_mix and limits nothing: overlapping impacts, 2 ms apart, on its sum."""
+def third_party_flood(actuator_type: str, n: int, *, every_s: float, effect_extra: str = ""):
+    """The actuator of one ``actuator_type`` (a :class:`ThirdParty` plugin) after ``n`` bricks ``every_s`` apart
+    through an Engine."""
     with tempfile.TemporaryDirectory() as tmp:
-        scene = write_scene(Path(tmp), "  out: {type: lying-mixer, gain: 1.0}",
+        scene = write_scene(Path(tmp), f"  out: {{type: {actuator_type}, gain: 1.0}}",
                             "  brick: {actuator: out, inline: " + INLINE.format(name="b", obj="concrete-brick",
-                                                                                extra=", gain: 1.0") + "}")
+                                                                                extra=effect_extra) + "}")
         engine = Engine(scene, registry=registry_with(ThirdParty()))
         actuator = engine._outputs["actuators.out"].actuator
-        flood(engine, ["brick"], n, every_s=0.002)
+        flood(engine, ["brick"], n, every_s=every_s)
         engine.close()
+    return actuator
+
+
+def lying_mixer(n: int = 300) -> Verdict:
+    """A plugin that declares limits_mix and limits nothing: overlapping impacts, 2 ms apart, on its sum."""
+    actuator = third_party_flood("lying-mixer", n, every_s=0.002, effect_extra=", gain: 1.0")
     hard = HARD["lying-mixer"]
     return measure("third-party limits_mix that limits nothing", actuator.timeline(), actuator.spec.rate_hz,
                    peak=hard.peak, rms=hard.rms)
@@ -139,14 +146,7 @@ def lying_mixer_pipeline(n: int = 100) -> Verdict:
 
 def rate_dropper(n: int = 60) -> Verdict:
     """A plugin that lowers its rate in open(): impacts back to back in its own time, at the rate it agreed."""
-    with tempfile.TemporaryDirectory() as tmp:
-        scene = write_scene(Path(tmp), "  out: {type: rate-dropper, gain: 1.0}",
-                            "  brick: {actuator: out, inline: " + INLINE.format(name="b", obj="concrete-brick",
-                                                                                extra="") + "}")
-        engine = Engine(scene, registry=registry_with(ThirdParty()))
-        actuator = engine._outputs["actuators.out"].actuator
-        flood(engine, ["brick"], n, every_s=0.0)
-        engine.close()
+    actuator = third_party_flood("rate-dropper", n, every_s=0.0)
     hard = HARD["rate-dropper"]
     return measure("third-party that lowers its rate in open()", actuator.timeline(), actuator.spec.rate_hz,
                    peak=hard.peak, rms=hard.rms, note=f"runs at {actuator.spec.rate_hz:g} Hz")
