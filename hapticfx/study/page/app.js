@@ -99,8 +99,14 @@ function renderTrial() {
                                  onclick: () => act("/api/play", {trial: t.index, slot: s.name})},
                       s.plays ? (t.replay ? "Play again" : "Played") : "Play"));
     if (t.type === "matching" && s.name !== "target") {
-      box.append(el("br"), el("button", {id: `choose-${s.name}`, class: "choose secondary", disabled: busy || !allPlayed,
-                                          onclick: () => { saveDraft({choice: s.name}); render(); }}, `Choose ${s.name}`));
+      const chosen = draft.choice === s.name;  // marked by a frame, a check mark and words, not by colour alone
+      box.prepend(el("span", {class: "mark", "aria-hidden": "true"}, chosen ? "\u2713 Chosen" : ""));
+      box.append(el("br"), el("button", {id: `choose-${s.name}`, class: "choose secondary", "aria-pressed": String(chosen),
+                                          disabled: busy || !allPlayed,
+                                          onclick: () => { saveDraft({choice: s.name}); render(); }},
+                              chosen ? `\u2713 Chosen ${s.name}` : `Choose ${s.name}`));
+    } else if (t.type === "matching") {
+      box.prepend(el("span", {class: "mark", "aria-hidden": "true"}, ""));
     }
     slots.append(box);
   }
@@ -114,18 +120,20 @@ function renderTrial() {
     for (const q of t.questions) {
       const input = el("input", {type: "range", id: `rating-${q.id}`, min: q.low, max: q.high, step: "any",
                                   class: q.id in ratings ? "" : "untouched", disabled: busy || !allPlayed,
-                                  "aria-label": q.text});
+                                  "aria-label": q.text, "aria-valuetext": q.id in ratings ? null : "no answer yet"});
       input.value = q.id in ratings ? ratings[q.id] : (q.low + q.high) / 2;
       input.addEventListener("input", () => {
         ratings[q.id] = Number(input.value);
         input.classList.remove("untouched");
+        input.removeAttribute("aria-valuetext");
         saveDraft({ratings});
         submit.disabled = busy || !complete();
       });
       const anchors = el("div", {class: "anchors"});
       for (const a of q.anchors) {
         const at = 100 * (a.at - q.low) / (q.high - q.low);
-        anchors.append(el("span", {class: at === 0 ? "low" : at === 100 ? "high" : "", style: `left:${at}%`}, a.label));
+        const where = at === 100 ? "right:0" : `left:${at}%`;
+        anchors.append(el("span", {class: at === 0 ? "low" : at === 100 ? "high" : "", style: where}, a.label));
       }
       app.append(el("div", {class: "question"}, el("label", {for: `rating-${q.id}`}, q.text), input, anchors));
     }
