@@ -209,3 +209,16 @@ def test_a_chosen_comparison_is_marked_beyond_colour(browser, tmp_path):
         assert "\u2713" not in other[0] and other[3] == "none"
         light, dark = sorted((_luminance(other[1]), _luminance(chosen[0][1])), reverse=True)
         assert (light + 0.05) / (dark + 0.05) >= 3.0, (other[1], chosen[0][1])
+
+
+def test_the_served_stylesheet_holds_the_rules_the_browser_tests_measure(served):
+    """Without chromium the tests above skip; this reads the served CSS instead (a weaker check: the rules exist,
+    not what a browser draws with them)."""
+    _, server, _ = served
+    with urllib.request.urlopen(server.url.rstrip("/") + "/style.css", timeout=10) as r:
+        css = re.sub(r"\s+", " ", r.read().decode())
+    assert re.search(r"input\[type=range\] \{[^}]*appearance: none", css)  # no native fill of the track
+    assert "::-moz-range-progress { background: transparent; }" in css
+    for engine in ("webkit-slider", "moz-range"):
+        assert f"input[type=range].untouched::-{engine}-thumb {{ visibility: hidden; }}" in css
+    assert re.search(r"\.slot\.chosen \{[^}]*outline: 3px solid", css)
