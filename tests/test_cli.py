@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -223,22 +224,55 @@ def test_plugins_and_study_check_print_json():
     assert sum(t["trials"] + t["practice"] for t in check["tasks"]) == len(check["schedule"])
 
 
-def test_command_lists_show_whole_phrases_not_cut_ones():
-    """Click cut each command's summary at a fixed width ('Check effect files (or haptic files: .haptic,
-    .ahap,...'); the lists show the first sentence up to its first colon or semicolon instead."""
+def _every_command():
+    """``(name, click command)`` of every command and group below ``hapticfx``, with the plugins' commands."""
     import typer
 
-    from hapticfx.cli import build_app, summary
+    from hapticfx.cli import build_app
 
     def walk(command, path):
         for name, sub in getattr(command, "commands", {}).items():
             yield " ".join([*path, name]), sub
             yield from walk(sub, [*path, name])
 
-    listed = dict(walk(typer.main.get_command(build_app()), []))
+    return list(walk(typer.main.get_command(build_app()), []))
+
+
+def test_command_lists_show_whole_phrases_not_cut_ones():
+    """Click cut each command's summary at a fixed width ('Check effect files (or haptic files: .haptic,
+    .ahap,...'); the lists show the first sentence up to its first colon or semicolon instead."""
+    from hapticfx.cli import summary
+
+    listed = dict(_every_command())
     assert {"validate", "bench", "bench fuzz", "data pick", "study check"} <= set(listed)
     for name, command in listed.items():
         text = command.get_short_help_str(limit=45)
         assert text.endswith(".") and not text.endswith("..."), (name, text)
     assert summary("Fuzz the input gates: every mutant (a, b: c) must be refused.\n\nMore.") == "Fuzz the input gates."
     assert summary("Check files (or haptic files: .ahap, ...), scenes; then more") == "Check files (or haptic files: .ahap, ...), scenes."
+
+
+# Labels typer makes from a parameter's Python type: a user cannot tell what to type from them.
+MACHINE_LABEL = re.compile(r"<[^<>]*>|list\[|Path\]|\b(INTEGER|FLOAT|TEXT)( RANGE)?\b")
+
+
+def test_every_option_label_says_what_to_type():
+    """Every option of every command (``bench ...``, ``data ...``, ``study ...`` and the plugins' included) shows a
+    label in words (COUNT, M/S, SECONDS, DIR, 0-1...), not typer's ``<int range>`` or ``<list[Path]>``."""
+    from typer.testing import CliRunner
+
+    from hapticfx.cli import build_app
+
+    app = build_app()
+    commands = _every_command()
+    assert {"play", "bench formats", "data synth", "study run", "train"} <= {name for name, _ in commands}
+    labelled = 0
+    for name, command in [("", None), *commands]:
+        text = CliRunner().invoke(app, [*name.split(), "--help"], terminal_width=200).output
+        usage, _, listing = text.partition("Options:")
+        assert "Usage:" in usage, (name, text)
+        labels = [line.strip().split("  ")[0] for line in listing.splitlines() if line.startswith("  -")]
+        for label in labels + [line for line in usage.splitlines() if line.startswith("Usage:")]:
+            assert not MACHINE_LABEL.search(label), f"hapticfx {name} --help: {label!r}"
+        labelled += sum(" " in label.split(", ")[-1] for label in labels)
+    assert labelled > 100  # the walk reached the options that take a value

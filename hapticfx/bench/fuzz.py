@@ -16,14 +16,18 @@ def fuzz(
     gates: Optional[list[str]] = typer.Argument(None, help="Gates to fuzz (default: all installed; with --mutator "
                                                 "types, the YAML ones): effect, scene, study, csv, dataset, checkpoint, "
                                                 "osc, serial, at2, limits."),
-    mutator: str = typer.Option("bytes", "--mutator", help="bytes: flipped, dropped and inserted bytes and tokens; "
+    mutator: str = typer.Option("bytes", "--mutator", metavar="bytes|types",
+                                help="bytes: flipped, dropped and inserted bytes and tokens; "
                                 "types: a value of the wrong type (list, mapping, null, boolean, number, name) at any "
                                 "key of a valid YAML file."),
-    inputs: int = typer.Option(100_000, "--inputs", min=1, help="Mutated inputs per gate."),
-    seed: int = typer.Option(0, "--seed", help="The same seed gives the same inputs."),
-    time_limit: float = typer.Option(1.0, "--time-limit", min=0.01, help="Seconds one input may take (else a hang)."),
-    overrides: int = typer.Option(10_000, "--overrides", min=1, help="limits gate: random effect overrides."),
-    signals: int = typer.Option(100, "--signals", min=1, help="limits gate: random profiles per override."),
+    inputs: int = typer.Option(100_000, "--inputs", metavar="COUNT", min=1, help="Mutated inputs per gate."),
+    seed: int = typer.Option(0, "--seed", metavar="SEED", help="The same seed gives the same inputs."),
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", min=0.01,
+                                     help="Seconds one input may take (else a hang)."),
+    overrides: int = typer.Option(10_000, "--overrides", metavar="COUNT", min=1,
+                                  help="limits gate: random effect overrides."),
+    signals: int = typer.Option(100, "--signals", metavar="COUNT", min=1,
+                                help="limits gate: random profiles per override."),
 ):
     """Fuzz the input gates: every mutant must be accepted or refused in one line under 300 characters, within
     the time limit, never with a traceback; and random profiles, gains and limit overrides must never take the

@@ -14,28 +14,36 @@ from ..progress import say
 
 
 def interpolators(
-    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="Dataset path, builtin:NAME or "
+    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", metavar="DATASET",
+                                help="Dataset path, builtin:NAME or "
                                 "heldout:NAME (a held-out set, simulated on first use; see "
                                 "hapticfx/datasets/heldout/README.md)."),
-    reducer: str = typer.Option("max-min", "--reducer", help="Which bank of the dataset."),
-    methods: str = typer.Option("linear,ensemble", "--methods", help="Comma-separated rows: interpolator names, or "
+    reducer: str = typer.Option("max-min", "--reducer", metavar="NAME", help="Which bank of the dataset."),
+    methods: str = typer.Option("linear,ensemble", "--methods", metavar="NAME,...",
+                                help="Comma-separated rows: interpolator names, or "
                                 "rows named in --config. linear is always included: every ratio is against it."),
-    protocol: str = typer.Option("lovo", "--protocol", help="lovo: leave each interior velocity of every object out "
+    protocol: str = typer.Option("lovo", "--protocol", metavar="lovo|looo|paper",
+                                 help="lovo: leave each interior velocity of every object out "
                                  "in turn (any dataset); looo: leave each object out in turn (no training target "
                                  "from it; its interior velocities predicted from its neighbours); paper: the "
                                  "paper's split (train 2.80, 3.13, 3.43, 4.85, 5.05; test 3.96, 4.43 m/s); "
                                  "generalisation: the same rows on builtin:helmet-drops (lovo), every held-out set "
                                  "(lovo) and builtin:helmet-drops (looo), one table per dataset with issue 26's "
                                  "criteria as pass/fail (not with --dataset)."),
-    config: Optional[Path] = typer.Option(None, "--config", help="YAML: row -> {interpolator, options, model, "
+    config: Optional[Path] = typer.Option(None, "--config", metavar="YAML",
+                                          help="YAML: row -> {interpolator, options, model, "
                                           "training} (e.g. network sizes; see docs/neural.md)."),
-    epochs: Optional[int] = typer.Option(None, "--epochs", min=1, help="Maximum training epochs of learned rows "
+    epochs: Optional[int] = typer.Option(None, "--epochs", metavar="COUNT", min=1,
+                                         help="Maximum training epochs of learned rows "
                                          "(default: their configuration's)."),
-    seed: int = typer.Option(0, "--seed", help="Training seed of learned rows and the bootstrap's seed."),
-    repeats: int = typer.Option(50, "--repeats", min=5, help="Timed predictions per method (first round)."),
-    max_rounds: Optional[int] = typer.Option(None, "--max-rounds", min=1, help="Run at most this many rounds per "
+    seed: int = typer.Option(0, "--seed", metavar="SEED",
+                             help="Training seed of learned rows and the bootstrap's seed."),
+    repeats: int = typer.Option(50, "--repeats", metavar="COUNT", min=5,
+                                help="Timed predictions per method (first round)."),
+    max_rounds: Optional[int] = typer.Option(None, "--max-rounds", metavar="COUNT", min=1,
+                                             help="Run at most this many rounds per "
                                              "dataset, evenly spread (tables say how many folds ran)."),
-    out: Path = typer.Option(Path("bench-interpolators"), "--out", "-o", help="Directory for tables.md, "
+    out: Path = typer.Option(Path("bench-interpolators"), "--out", "-o", metavar="DIR", help="Directory for tables.md, "
                              "results.json and the PNGs (one sub-folder per dataset for generalisation)."),
 ):
     """Score interpolators on held-out recorded velocities: RMSE against the representative, every drop and

@@ -71,7 +71,7 @@ def _time_stages(pipeline, velocity: float, head: _Head, point) -> tuple[float, 
 def render(
     effects: Optional[list[Path]] = typer.Argument(None, help="Effect files (default: every shipped effect, the "
                                                   "falling objects in every model and the impact families)."),
-    repeats: int = typer.Option(200, "--repeats", min=5, help="Timed renders per effect."),
+    repeats: int = typer.Option(200, "--repeats", metavar="COUNT", min=5, help="Timed renders per effect."),
     direct: bool = typer.Option(True, "--direct/--no-direct", help="Also time the ConvBiLSTM by direct inference "
                                 "(needs torch)."),
 ):

@@ -48,9 +48,10 @@ def _run(args: list[str]) -> tuple[float, list[str]]:
 def startup(
     effects: Optional[list[Path]] = typer.Argument(None, help="Effect files to play (default: the falling brick's "
                                                   "ensemble, ConvBiLSTM, linear and kinetic-energy effects)."),
-    baseline: Path = typer.Option(Path("effects/falling_brick_linear.yaml"), "--baseline",
+    baseline: Path = typer.Option(Path("effects/falling_brick_linear.yaml"), "--baseline", metavar="EFFECT",
                                   help="The effect every ratio is taken against (measured in the same run)."),
-    repeats: int = typer.Option(9, "--repeats", min=3, help="Fresh processes per effect, taken in turns."),
+    repeats: int = typer.Option(9, "--repeats", metavar="COUNT", min=3,
+                                help="Fresh processes per effect, taken in turns."),
 ):
     """Cold start: wall time of `hapticfx play EFFECT --device wav:FILE` in a fresh process, from the interpreter's
     start to the WAV on disk, against floors (python alone, `import hapticfx`) and a baseline

@@ -110,16 +110,24 @@ def register_commands(app, bench):
     @app.command("serve")
     def serve(
         scene: Path = typer.Argument(..., help="Scene file (YAML)."),
-        host: str = typer.Option(None, help="Address to bind (default: the scene's events.osc.host, else 127.0.0.1)."),
-        port: int = typer.Option(None, min=0, max=65535, help="UDP port (default: the scene's events.osc.port, else 9000; 0: any free)."),
-        device: str = typer.Option(None, help="Replace every actuator: 'memory', 'wav:PATH' or 'csv:PATH' (one file per output, each impact at its time)."),
-        stats_every: float = typer.Option(0.0, min=0.0, help="Print the counters as JSON every this many seconds (0: only at exit)."),
-        duration: float = typer.Option(None, min=0.0, help="Stop after this many seconds (default: until Ctrl-C or SIGTERM)."),
+        host: str = typer.Option(None, metavar="ADDRESS",
+                                 help="Address to bind (default: the scene's events.osc.host, else 127.0.0.1)."),
+        port: int = typer.Option(None, metavar="PORT", min=0, max=65535,
+                                 help="UDP port (default: the scene's events.osc.port, else 9000; 0: any free)."),
+        device: str = typer.Option(None, metavar="DEVICE",
+                                   help="Replace every actuator: 'memory', 'wav:PATH' or 'csv:PATH' (one file per "
+                                        "output, each impact at its time)."),
+        stats_every: float = typer.Option(0.0, metavar="SECONDS", min=0.0,
+                                          help="Print the counters as JSON every this many seconds (0: only at exit)."),
+        duration: float = typer.Option(None, metavar="SECONDS", min=0.0,
+                                       help="Stop after this many seconds (default: until Ctrl-C or SIGTERM)."),
         allow_remote: bool = typer.Option(False, "--allow-remote", help="Listen on an address other machines can "
                                           "reach (--host 0.0.0.0, or the scene's host); refused without this flag."),
-        secret_file: Path = typer.Option(None, help="A file whose first line is a shared secret (16-128 letters, "
+        secret_file: Path = typer.Option(None, metavar="FILE",
+                                         help="A file whose first line is a shared secret (16-128 letters, "
                                          "digits, '_', '-'): other machines must then send /<secret>/hapticfx/impact."),
-        log: Path = typer.Option(None, help="Write each played impact (object, velocity, at, point, normal, output, "
+        log: Path = typer.Option(None, metavar="FILE",
+                                 help="Write each played impact (object, velocity, at, point, normal, output, "
                                  "peak, latency) to this file as it is played, one JSON line each."),
     ):
         """Receive impacts over OSC/UDP (docs/protocol.md) and render them on the scene's actuators.
@@ -142,9 +150,10 @@ def register_commands(app, bench):
 
     @bench.command("serve")
     def bench_serve_cmd(
-        impacts: int = typer.Option(300, min=10, help="Impacts per row."),
-        interval_ms: float = typer.Option(5.0, min=0.0, help="Pause after each impact is played (ms)."),
-        scene: Path = typer.Option(None, help="Scene to serve (default: a 4-object kinetic-energy scene)."),
+        impacts: int = typer.Option(300, metavar="COUNT", min=10, help="Impacts per row."),
+        interval_ms: float = typer.Option(5.0, metavar="MS", min=0.0, help="Pause after each impact is played (ms)."),
+        scene: Path = typer.Option(None, metavar="SCENE",
+                                   help="Scene to serve (default: a 4-object kinetic-energy scene)."),
     ):
         """Latency from `serve` receiving an impact to its samples reaching the actuator (median, p99)."""
         from ..bench.serve import bench_serve
@@ -155,9 +164,10 @@ def register_commands(app, bench):
     @bench.command("flood")
     def bench_flood_cmd(
         scene: Path = typer.Argument(Path("scenes/earthquake_room.yaml"), help="Scene to serve."),
-        seconds: float = typer.Option(60.0, min=1.0, help="How long to flood."),
-        rate: float = typer.Option(3500.0, min=1.0, help="Impacts sent per second."),
-        device: str = typer.Option(None, help="Replace every actuator ('memory', 'wav:PATH'); default: the scene's own."),
+        seconds: float = typer.Option(60.0, metavar="SECONDS", min=1.0, help="How long to flood."),
+        rate: float = typer.Option(3500.0, metavar="PER_SECOND", min=1.0, help="Impacts sent per second."),
+        device: str = typer.Option(None, metavar="DEVICE",
+                                   help="Replace every actuator ('memory', 'wav:PATH'); default: the scene's own."),
     ):
         """`hapticfx serve` under a sustained OSC flood: resident memory over time, and every impact accounted for."""
         from ..bench.flood import accounting, run
@@ -176,8 +186,9 @@ def register_commands(app, bench):
 
     @bench.command("scene")
     def bench_scene_cmd(
-        repeats: int = typer.Option(5, "--repeats", min=1, help="Fresh processes per scene."),
-        neural_weights: Path = typer.Option(None, help="convbilstm checkpoint directory (default: the shipped weights)."),
+        repeats: int = typer.Option(5, "--repeats", metavar="COUNT", min=1, help="Fresh processes per scene."),
+        neural_weights: Path = typer.Option(None, metavar="DIR",
+                                            help="convbilstm checkpoint directory (default: the shipped weights)."),
     ):
         """Start-up time and peak memory of a physics-only scene against data-driven and neural ones."""
         from ..bench.serve import bench_scene

@@ -60,10 +60,10 @@ def _summary(pipeline, delivery, destination: str) -> str:
 
 def play(
     effect: Path = typer.Argument(..., help=f"Effect file (YAML), e.g. effects/falling_brick.yaml, {HAPTIC_FILE_HELP}"),
-    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help=VELOCITY_HELP),
-    object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
+    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", metavar="M/S", help=VELOCITY_HELP),
+    object: Optional[str] = typer.Option(None, "--object", metavar="OBJECT", help=OBJECT_HELP),
     device: Optional[str] = typer.Option(
-        None, "--device", "-d",
+        None, "--device", "-d", metavar="DEVICE",
         help="Output device: a name or index for the effect's actuator, 'wav:PATH' or 'csv:PATH' to write a "
              "WAV or CSV file at the actuator's rate, or 'memory'. Default: the effect's device.",
     ),
@@ -109,9 +109,10 @@ def play(
 
 def render(
     effect: Path = typer.Argument(..., help=f"Effect file (YAML) {HAPTIC_FILE_HELP}"),
-    out: Path = typer.Option(..., "--out", "-o", help="Output file: .wav (actuator signal), .csv (profile) or .png (both, plotted)."),
-    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help=VELOCITY_HELP),
-    object: Optional[str] = typer.Option(None, "--object", help=OBJECT_HELP),
+    out: Path = typer.Option(..., "--out", "-o", metavar="FILE",
+                             help="Output file: .wav (actuator signal), .csv (profile) or .png (both, plotted)."),
+    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", metavar="M/S", help=VELOCITY_HELP),
+    object: Optional[str] = typer.Option(None, "--object", metavar="OBJECT", help=OBJECT_HELP),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):
     """Render one impact to a file without touching any device."""
@@ -194,7 +195,7 @@ def validate(
 
 def info(
     effect: Path = typer.Argument(..., help="Effect file (YAML)."),
-    device: Optional[str] = typer.Option(None, "--device", "-d", help="As for play."),
+    device: Optional[str] = typer.Option(None, "--device", "-d", metavar="DEVICE", help="As for play."),
     as_json: bool = typer.Option(False, "--json", help=JSON_HELP),
 ):
     """Show what an effect will load: plugins, dataset, interpolator, actuator spec and limits."""
@@ -222,7 +223,8 @@ def plugins(as_json: bool = typer.Option(False, "--json", help=JSON_HELP)):
         typer.echo("  ".join(str(x).ljust(w) for x, w in zip(row, widths)).rstrip())
 
 
-def schema(out: Optional[Path] = typer.Option(None, "--out", "-o", help="Write to this file instead of stdout.")):
+def schema(out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE",
+                                              help="Write to this file instead of stdout.")):
     """Print the JSON Schema of effect files (for editors), covering the installed plugins."""
     from ..atomic import atomic_path
     from ..schema import effect_schema

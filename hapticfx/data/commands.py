@@ -28,10 +28,12 @@ def _pairs(items: list[str], option: str) -> dict[str, str]:
 
 def import_(
     files: List[Path] = typer.Argument(..., help="Tidy CSV file(s): object,velocity_mps,drop,t_s,ax_g,ay_g,az_g."),
-    out: Path = typer.Option(..., "--out", "-o", help="Dataset directory to create."),
-    name: Optional[str] = typer.Option(None, help="Dataset name (default: the directory name)."),
-    sensor: List[str] = typer.Option([], help="Sensor metadata KEY=VALUE, repeatable (e.g. model=ADXL335)."),
-    mass: List[str] = typer.Option([], help="OBJECT=KG for objects that are not built in, repeatable."),
+    out: Path = typer.Option(..., "--out", "-o", metavar="DIR", help="Dataset directory to create."),
+    name: Optional[str] = typer.Option(None, metavar="NAME", help="Dataset name (default: the directory name)."),
+    sensor: List[str] = typer.Option([], metavar="KEY=VALUE",
+                                     help="Sensor metadata KEY=VALUE, repeatable (e.g. model=ADXL335)."),
+    mass: List[str] = typer.Option([], metavar="OBJECT=KG",
+                                   help="OBJECT=KG for objects that are not built in, repeatable."),
     force: bool = typer.Option(False, "--force", help="Replace an existing dataset at --out."),
 ):
     """Import drop recordings from tidy CSV into a dataset (raw + max-min and dft321 banks).
@@ -52,16 +54,20 @@ def import_(
 
 
 def record(
-    port: str = typer.Option(..., "--port", "-p", help="Serial port of the accelerometer board, e.g. /dev/ttyACM0."),
-    object: str = typer.Option(..., "--object", help="Object id written into each file."),
-    height_m: float = typer.Option(..., "--height-m", help="Drop height in metres; v = sqrt(2 g h)."),
-    drops: int = typer.Option(10, help="Number of drops to record."),
-    out_dir: Path = typer.Option(Path("recordings"), "--out-dir", help="Folder for the per-drop CSV files."),
-    threshold_g: float = typer.Option(0.5, help="Trigger: deviation from rest of the acceleration vector, in g."),
-    pre_trigger: int = typer.Option(50, help="Samples kept from before the trigger."),
-    samples: int = typer.Option(1000, help="Samples per drop (pre-trigger included)."),
-    timeout_s: float = typer.Option(60.0, help="Give up when no impact comes within this many seconds."),
-    baud: int = typer.Option(500000, help="Serial baud rate (the sketch uses 500000)."),
+    port: str = typer.Option(..., "--port", "-p", metavar="PORT",
+                             help="Serial port of the accelerometer board, e.g. /dev/ttyACM0."),
+    object: str = typer.Option(..., "--object", metavar="OBJECT", help="Object id written into each file."),
+    height_m: float = typer.Option(..., "--height-m", metavar="METRES", help="Drop height in metres; v = sqrt(2 g h)."),
+    drops: int = typer.Option(10, metavar="COUNT", help="Number of drops to record."),
+    out_dir: Path = typer.Option(Path("recordings"), "--out-dir", metavar="DIR",
+                                 help="Folder for the per-drop CSV files."),
+    threshold_g: float = typer.Option(0.5, metavar="G",
+                                      help="Trigger: deviation from rest of the acceleration vector, in g."),
+    pre_trigger: int = typer.Option(50, metavar="SAMPLES", help="Samples kept from before the trigger."),
+    samples: int = typer.Option(1000, metavar="SAMPLES", help="Samples per drop (pre-trigger included)."),
+    timeout_s: float = typer.Option(60.0, metavar="SECONDS",
+                                    help="Give up when no impact comes within this many seconds."),
+    baud: int = typer.Option(500000, metavar="BAUD", help="Serial baud rate (the sketch uses 500000)."),
 ):
     """Record triggered drops from the serial accelerometer board, one CSV file per drop."""
     from ..board.record import record_drops
@@ -75,10 +81,11 @@ def record(
 
 def plot(
     object: str = typer.Argument(..., help="Object id."),
-    dataset: str = typer.Option(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
-    reducer: str = typer.Option("max-min", help="Reducer whose bank and drops are drawn."),
-    velocity: Optional[float] = typer.Option(None, help="Velocity (m/s) whose drops are drawn (default: middle one)."),
-    out: Path = typer.Option(Path("profiles.png"), "--out", "-o", help="PNG file to write."),
+    dataset: str = typer.Option(DEFAULT_DATASET, metavar="DATASET", help="Dataset path or builtin:NAME."),
+    reducer: str = typer.Option("max-min", metavar="NAME", help="Reducer whose bank and drops are drawn."),
+    velocity: Optional[float] = typer.Option(None, metavar="M/S",
+                                             help="Velocity (m/s) whose drops are drawn (default: middle one)."),
+    out: Path = typer.Option(Path("profiles.png"), "--out", "-o", metavar="PNG", help="PNG file to write."),
 ):
     """Plot the drops at one velocity with the chosen representative, and the profiles across velocities."""
     from .dataset import open_dataset
@@ -134,7 +141,7 @@ def pick(
     object: str = typer.Argument(..., help="Object id."),
     velocity: float = typer.Argument(..., help="Recorded velocity in m/s."),
     drop: Optional[int] = typer.Argument(None, help="Drop index to use; omit with --auto."),
-    dataset: str = typer.Option(..., help="Dataset directory (rewritten in place, atomically)."),
+    dataset: str = typer.Option(..., metavar="DIR", help="Dataset directory (rewritten in place, atomically)."),
     auto: bool = typer.Option(False, "--auto", help="Remove the manual choice and go back to the medoid."),
 ):
     """Choose the representative drop of one velocity by hand (stored in the metadata) and rebuild the banks."""
@@ -158,10 +165,11 @@ def tables(dataset: str = typer.Argument(..., help="Dataset directory (its table
 
 
 def bench_reducers(
-    dataset: str = typer.Option(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
-    repeats: int = typer.Option(30, "--repeats", help="Timed repetitions (median and IQR are over these)."),
-    number: int = typer.Option(200, help="Calls per repetition for the single-signal time."),
-    samples: int = typer.Option(1_000_000, help="3-axis samples in the large-batch timing."),
+    dataset: str = typer.Option(DEFAULT_DATASET, metavar="DATASET", help="Dataset path or builtin:NAME."),
+    repeats: int = typer.Option(30, "--repeats", metavar="COUNT",
+                                help="Timed repetitions (median and IQR are over these)."),
+    number: int = typer.Option(200, metavar="COUNT", help="Calls per repetition for the single-signal time."),
+    samples: int = typer.Option(1_000_000, metavar="COUNT", help="3-axis samples in the large-batch timing."),
 ):
     """Table 4 analogue (spectral/temporal match per object and reducer) and time per reduction."""
     from ..registry import get_registry

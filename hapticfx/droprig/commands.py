@@ -28,18 +28,23 @@ def _floats(text: str, *, option: str) -> list[float]:
 def synth(
     out: Optional[Path] = typer.Argument(None, help="Dataset directory to write (not with --builtin)."),
     builtin: bool = typer.Option(False, "--builtin", help="Regenerate the packaged builtin:helmet-drops dataset."),
-    objects: str = typer.Option("all", "--objects", help="Comma-separated built-in object ids, or 'all'."),
-    velocities: str = typer.Option("", "--velocities", help="Comma-separated velocities in m/s (default: the paper's 12)."),
-    drops: int = typer.Option(10, "--drops", min=1, max=1000, help="Drops per velocity."),
-    seed: int = typer.Option(20230417, "--seed", help="Random seed: the same seed gives the same recordings."),
-    workers: int = typer.Option(0, "--jobs", "-j", "--workers", min=0, max=256,
+    objects: str = typer.Option("all", "--objects", metavar="ID,...",
+                                help="Comma-separated built-in object ids, or 'all'."),
+    velocities: str = typer.Option("", "--velocities", metavar="M/S,...",
+                                   help="Comma-separated velocities in m/s (default: the paper's 12)."),
+    drops: int = typer.Option(10, "--drops", metavar="COUNT", min=1, max=1000, help="Drops per velocity."),
+    seed: int = typer.Option(20230417, "--seed", metavar="SEED",
+                             help="Random seed: the same seed gives the same recordings."),
+    workers: int = typer.Option(0, "--jobs", "-j", "--workers", metavar="COUNT", min=0, max=256,
                                 help="Processes simulating drops in parallel (joblib, loky); 0: every core. "
                                      "Any value gives the same recordings."),
     force: bool = typer.Option(False, "--force", help="Replace OUT if it exists."),
-    heldout: Optional[str] = typer.Option(None, "--heldout", help="Simulate a held-out evaluation set by name "
+    heldout: Optional[str] = typer.Option(None, "--heldout", metavar="NAME",
+                                          help="Simulate a held-out evaluation set by name "
                                           "(or 'all') into the cache `heldout:NAME` reads (or into OUT); see "
                                           "hapticfx/datasets/heldout/README.md."),
-    spec: Optional[Path] = typer.Option(None, "--spec", help="YAML spec: other objects (mass, size, material), "
+    spec: Optional[Path] = typer.Option(None, "--spec", metavar="YAML",
+                                        help="YAML spec: other objects (mass, size, material), "
                                         "velocities per object, drops, seed, helmet and sensor (see docs/physics.md; "
                                         "not with --objects, --velocities, --drops, --seed)."),
 ):
@@ -99,11 +104,12 @@ def synth(
 
 
 def bench_contact(
-    repeats: int = typer.Option(3, "--repeats", min=1, max=100, help="Timed runs per solver and tolerance."),
-    solvers: str = typer.Option("RK45,DOP853,Radau,BDF,LSODA", "--solvers",
+    repeats: int = typer.Option(3, "--repeats", metavar="COUNT", min=1, max=100,
+                                help="Timed runs per solver and tolerance."),
+    solvers: str = typer.Option("RK45,DOP853,Radau,BDF,LSODA", "--solvers", metavar="NAME,...",
                                 help="scipy solve_ivp methods for the work-precision table; 'none' skips it."),
-    rtols: str = typer.Option("1e-4,1e-6,1e-8", "--rtols", help="Relative tolerances."),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Also write the rows as JSON here."),
+    rtols: str = typer.Option("1e-4,1e-6,1e-8", "--rtols", metavar="TOL,...", help="Relative tolerances."),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE", help="Also write the rows as JSON here."),
 ):
     """Contact physics: the contact model's render time over stiffness, mass and velocity against its
     50 ms budget, then a work-precision table of the integration (soft k=1e5 to very stiff k=1e10)."""
@@ -132,10 +138,12 @@ def bench_contact(
 
 
 def bench_synth(
-    jobs: str = typer.Option("2", "--jobs", "-j", help="Comma-separated process counts to compare with serial (1)."),
-    drops: int = typer.Option(5, "--drops", min=1, max=100, help="Drops per velocity."),
-    velocities: int = typer.Option(12, "--velocities", min=1, max=12, help="How many of the paper's velocities."),
-    repeats: int = typer.Option(3, "--repeats", min=1, max=50, help="Timed runs per process count."),
+    jobs: str = typer.Option("2", "--jobs", "-j", metavar="COUNT,...",
+                             help="Comma-separated process counts to compare with serial (1)."),
+    drops: int = typer.Option(5, "--drops", metavar="COUNT", min=1, max=100, help="Drops per velocity."),
+    velocities: int = typer.Option(12, "--velocities", metavar="COUNT", min=1, max=12,
+                                   help="How many of the paper's velocities."),
+    repeats: int = typer.Option(3, "--repeats", metavar="COUNT", min=1, max=50, help="Timed runs per process count."),
 ):
     """Parallel simulation: `data synth`'s drops (wood beam, same seed) serially and through joblib with
     --jobs processes; median wall time [min, max], speed-up over serial, and whether the arrays match."""
@@ -151,9 +159,10 @@ def bench_synth(
 def bench_physics(
     effects: Optional[list[Path]] = typer.Argument(None, help="Effect files on the contact model (default: every "
                                                    "shipped family in effects/families/)."),
-    velocities: int = typer.Option(10000, "--velocities", min=1, help="Random velocities per effect, uniform over "
+    velocities: int = typer.Option(10000, "--velocities", metavar="COUNT", min=1,
+                                   help="Random velocities per effect, uniform over "
                                    "the table's knots (each one integrated directly)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the random velocities."),
+    seed: int = typer.Option(0, "--seed", metavar="SEED", help="Seed of the random velocities."),
 ):
     """Velocity tables of the physics models: the largest difference from direct integration at random velocities
     (relative to the peak at each), the time each took to build and its size; direct integration and table
@@ -164,7 +173,8 @@ def bench_physics(
 
 
 def bench_families(
-    plot: Optional[Path] = typer.Option(None, "--plot", help="Also write the four families' spectra (PNG) here."),
+    plot: Optional[Path] = typer.Option(None, "--plot", metavar="PNG",
+                                        help="Also write the four families' spectra (PNG) here."),
 ):
     """Each impact family against the published quantities it must match: quantity, source, range, rendered
     value (docs/families.md)."""

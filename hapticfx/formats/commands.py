@@ -45,15 +45,21 @@ def _refuse_existing(path: Path, force: bool) -> None:
 
 def export(
     source: Path = typer.Argument(..., help="Effect file (YAML), or a WAV file (its channels are averaged)."),
-    format: str = typer.Option(..., "--format", "-f", help="haptic, ahap, android, android-ogg or hjif (or a plugin's format)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Output file; with --velocities, a folder (made if missing)."),
-    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", help="Impact velocity in m/s (default: the "
+    format: str = typer.Option(..., "--format", "-f", metavar="FORMAT",
+                               help="haptic, ahap, android, android-ogg or hjif (or a plugin's format)."),
+    out: Path = typer.Option(..., "--out", "-o", metavar="PATH",
+                             help="Output file; with --velocities, a folder (made if missing)."),
+    velocity: Optional[float] = typer.Option(None, "--velocity", "-v", metavar="M/S",
+                                             help="Impact velocity in m/s (default: the "
                                              "effect's velocity_mps)."),
-    velocities: Optional[str] = typer.Option(None, "--velocities", help="One file per velocity, LO:HI:STEP or a comma "
+    velocities: Optional[str] = typer.Option(None, "--velocities", metavar="LO:HI:STEP",
+                                             help="One file per velocity, LO:HI:STEP or a comma "
                                              "list (m/s), named EFFECT-V.VVmps.SUFFIX in the --out folder."),
-    object: Optional[str] = typer.Option(None, "--object", help="Object id (default: the effect's object)."),
-    device: str = typer.Option("quest", "--device", help=DEVICE_HELP),
-    tolerance: float = typer.Option(0.01, "--tolerance", min=1e-4, max=0.5, help="Largest distance of the amplitude "
+    object: Optional[str] = typer.Option(None, "--object", metavar="OBJECT",
+                                         help="Object id (default: the effect's object)."),
+    device: str = typer.Option("quest", "--device", metavar="DEVICE", help=DEVICE_HELP),
+    tolerance: float = typer.Option(0.01, "--tolerance", metavar="FRACTION", min=1e-4, max=0.5,
+                                    help="Largest distance of the amplitude "
                                     "envelope from its breakpoints, fraction of full scale."),
     transients: bool = typer.Option(True, "--transients/--no-transients", help="Write a sharp onset as an emphasis "
                                     "(transient) in formats that hold one."),
@@ -110,10 +116,13 @@ def export(
 
 def bench_formats(
     effects: list[Path] = typer.Argument(None, help="Effect files (default: every shipped effect)."),
-    charts: Optional[Path] = typer.Option(None, "--charts", help="Write one PNG chart per format into this folder."),
-    repeats: int = typer.Option(5, "--repeats", min=1, max=100, help="Exports timed per effect and format."),
-    device: str = typer.Option("quest", "--device", help=DEVICE_HELP),
-    as_json: Optional[Path] = typer.Option(None, "--json", help="Also write the rows as JSON to this file."),
+    charts: Optional[Path] = typer.Option(None, "--charts", metavar="DIR",
+                                          help="Write one PNG chart per format into this folder."),
+    repeats: int = typer.Option(5, "--repeats", metavar="COUNT", min=1, max=100,
+                                help="Exports timed per effect and format."),
+    device: str = typer.Option("quest", "--device", metavar="DEVICE", help=DEVICE_HELP),
+    as_json: Optional[Path] = typer.Option(None, "--json", metavar="FILE",
+                                           help="Also write the rows as JSON to this file."),
 ):
     """Round trip of every effect through every format: envelope, spectral and perceptual error, size, time.
 

@@ -68,16 +68,18 @@ def _serve(session, *, port: int, echo) -> None:
 
 def run(
     study: Path = typer.Argument(..., help="Study file (YAML), e.g. studies/paper_study2.yaml."),
-    participant: Optional[str] = typer.Option(None, "--participant", "-p",
+    participant: Optional[str] = typer.Option(None, "--participant", "-p", metavar="ID",
                                               help="Participant id with a number (P07): picks the counterbalanced order."),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Results folder (default: results/<study name>)."),
-    device: Optional[str] = typer.Option(None, "--device", "-d",
+    out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="DIR",
+                                       help="Results folder (default: results/<study name>)."),
+    device: Optional[str] = typer.Option(None, "--device", "-d", metavar="DEVICE",
                                          help="Replace every actuator: 'memory' or 'wav:PATH' (one file per actuator)."),
-    port: int = typer.Option(8765, min=0, max=65535, help="Port of the participant's page on 127.0.0.1 (0: any free)."),
+    port: int = typer.Option(8765, metavar="PORT", min=0, max=65535,
+                             help="Port of the participant's page on 127.0.0.1 (0: any free)."),
     simulate: bool = typer.Option(False, "--simulate", help="A simulated participant answers (the study's 'simulate' model)."),
-    participants: Optional[int] = typer.Option(None, "--participants", min=1,
+    participants: Optional[int] = typer.Option(None, "--participants", metavar="COUNT", min=1,
                                                help="With --simulate: simulate P01..PN (default: the study's simulate.participants)."),
-    pace: float = typer.Option(0.0, min=0.0, help="With --simulate: seconds between answers."),
+    pace: float = typer.Option(0.0, metavar="SECONDS", min=0.0, help="With --simulate: seconds between answers."),
 ):
     """Run one participant through a study: stimuli play on the actuators, answers come from a local web page.
 
@@ -107,7 +109,7 @@ def run(
 
 def check(
     study: Path = typer.Argument(..., help="Study file (YAML)."),
-    participant: str = typer.Option("P01", "--participant", "-p", help="Whose schedule to show."),
+    participant: str = typer.Option("P01", "--participant", "-p", metavar="ID", help="Whose schedule to show."),
     trials: bool = typer.Option(False, "--trials", help="List every trial of the schedule."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON (for programs) instead of the summary."),
 ):
@@ -155,7 +157,8 @@ def _check_json(path: Path, spec, participant: str, schedule, trials: bool) -> N
 
 def analyze(
     results: Path = typer.Argument(..., help="Results folder of `study run` (holds <participant>.jsonl files)."),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Where to write tables, figures and the report "
+    out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="DIR",
+                                       help="Where to write tables, figures and the report "
                                                                   "(default: RESULTS/analysis)."),
 ):
     """Tidy CSV of all trials, means with 95% CIs, repeated-measures ANOVA, Holm pairwise tests, confusion

@@ -12,14 +12,16 @@ from hapticfx.errors import EffectError
 
 def train(
     config: Path = typer.Argument(..., help="Training configuration YAML (see docs/neural.md)."),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="Checkpoint directory (overrides `out:` in the YAML; "
+    out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="DIR",
+                                       help="Checkpoint directory (overrides `out:` in the YAML; "
                                        "default: checkpoints/<interpolator>-<dataset>-<reducer> here)."),
     ship: bool = typer.Option(False, "--ship", help="Write into the plugin's shipped weights for the dataset and "
                               "reducer (what effects use without `weights:`), replacing them; implies --release."),
     resume: bool = typer.Option(False, "--resume", help="Continue the run saved in the checkpoint directory."),
-    epochs: Optional[int] = typer.Option(None, "--epochs", min=1, help="Override training.epochs."),
+    epochs: Optional[int] = typer.Option(None, "--epochs", metavar="COUNT", min=1, help="Override training.epochs."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
-    curves: Optional[Path] = typer.Option(None, "--curves", help="Also write the learning curves (train and "
+    curves: Optional[Path] = typer.Option(None, "--curves", metavar="PNG",
+                                          help="Also write the learning curves (train and "
                                           "validation RMSE per epoch) to this PNG."),
     release: bool = typer.Option(False, "--release", help="At the end, delete the resume state (Adam moments, RNG) "
                                  "and keep only model.safetensors + model.json, e.g. for shipping weights."),
@@ -65,7 +67,8 @@ def train(
 
 def table(
     weights: Path = typer.Argument(..., help="Checkpoint directory or .safetensors file."),
-    dataset: Optional[str] = typer.Option(None, "--dataset", "-d", help="Dataset path or builtin:NAME (default: "
+    dataset: Optional[str] = typer.Option(None, "--dataset", "-d", metavar="DATASET",
+                                          help="Dataset path or builtin:NAME (default: "
                                           "the one the checkpoint was trained on)."),
 ):
     """Write the velocity table of a trained interpolator: what effects play without torch.
@@ -91,9 +94,12 @@ def table(
 
 def simulate(
     out: Path = typer.Argument(..., help="Folder for the specs (specs/) and the simulated datasets."),
-    rigs: int = typer.Option(8, "--rigs", min=1, max=10_000, help="How many random rigs (specs) to draw."),
-    first: int = typer.Option(0, "--first", min=0, help="Index of the first draw (to add rigs to a folder)."),
-    workers: int = typer.Option(2, "--workers", min=1, max=64, help="Processes simulating drops in parallel."),
+    rigs: int = typer.Option(8, "--rigs", metavar="COUNT", min=1, max=10_000,
+                             help="How many random rigs (specs) to draw."),
+    first: int = typer.Option(0, "--first", metavar="INDEX", min=0,
+                              help="Index of the first draw (to add rigs to a folder)."),
+    workers: int = typer.Option(2, "--workers", metavar="COUNT", min=1, max=64,
+                                help="Processes simulating drops in parallel."),
 ):
     """Simulate drop sets for pre-training: random rigs and objects from written-down ranges, dense velocity grids.
 

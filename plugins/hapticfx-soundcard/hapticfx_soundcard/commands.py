@@ -192,27 +192,33 @@ def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
 def bench_output(
     effects: Optional[list[Path]] = typer.Argument(None, help="Effects whose models are timed (default: the falling "
                                                              "brick with kinetic, linear, ensemble and ConvBiLSTM table)."),
-    impacts: int = typer.Option(250, "--impacts", "-n", min=1, help="Impacts timed per path and latency setting."),
-    latencies: list[str] = typer.Option(["low"], "--latency",
+    impacts: int = typer.Option(250, "--impacts", "-n", metavar="COUNT", min=1,
+                                help="Impacts timed per path and latency setting."),
+    latencies: list[str] = typer.Option(["low"], "--latency", metavar="low|high|SECONDS",
                                         callback=lambda values: [_latency(v) for v in values],
                                         help="Stream latency to time: 'low', 'high' or seconds (repeatable)."),
-    max_latency: Optional[float] = typer.Option(None, "--max-latency", min=0.0, max=1.0,
+    max_latency: Optional[float] = typer.Option(None, "--max-latency", metavar="SECONDS", min=0.0, max=1.0,
                                                 help="Longest buffer the stream may grow to after underflows "
                                                      "(0: never; default: the actuator's shipped max_latency)."),
-    queue: Optional[float] = typer.Option(None, "--queue", min=0.0, max=2.0,
+    queue: Optional[float] = typer.Option(None, "--queue", metavar="SECONDS", min=0.0, max=2.0,
                                           help="The actuator's queue option: seconds queued at the PulseAudio server, "
                                                "impacts written over them; 0: the PortAudio stream of --latency "
                                                "(default: the shipped 'auto', a 0.15 s queue where a server answers)."),
-    ahead: Optional[float] = typer.Option(None, "--ahead", min=0.002, max=0.5,
+    ahead: Optional[float] = typer.Option(None, "--ahead", metavar="SECONDS", min=0.002, max=0.5,
                                           help="With --queue: how far ahead of playback impacts are written "
                                                "(default: the actuator's shipped ahead)."),
-    gap: float = typer.Option(0.55, "--gap", min=0.05, help="Seconds between impacts (longer than one impact)."),
-    device: str = typer.Option("default", "--device", "-d", help="Sound output to time (its monitor must be the default input)."),
-    seconds: float = typer.Option(2.0, "--seconds", min=0.1, help="Audio seconds mixed per capacity point."),
-    voices: list[int] = typer.Option([1, 100, 1000, 4096], "--voices", help="Impacts sounding at once (repeatable)."),
-    recoveries: int = typer.Option(3, "--recoveries", min=0, help="Stalls and restarts of a private sound server timed "
+    gap: float = typer.Option(0.55, "--gap", metavar="SECONDS", min=0.05,
+                              help="Seconds between impacts (longer than one impact)."),
+    device: str = typer.Option("default", "--device", "-d", metavar="DEVICE",
+                               help="Sound output to time (its monitor must be the default input)."),
+    seconds: float = typer.Option(2.0, "--seconds", metavar="SECONDS", min=0.1,
+                                  help="Audio seconds mixed per capacity point."),
+    voices: list[int] = typer.Option([1, 100, 1000, 4096], "--voices", metavar="COUNT",
+                                     help="Impacts sounding at once (repeatable)."),
+    recoveries: int = typer.Option(3, "--recoveries", metavar="COUNT", min=0,
+                                   help="Stalls and restarts of a private sound server timed "
                                                                   "(0: skip)."),
-    round_trips: int = typer.Option(200, "--round-trips", min=1, help="Solenoid commands timed."),
+    round_trips: int = typer.Option(200, "--round-trips", metavar="COUNT", min=1, help="Solenoid commands timed."),
 ):
     """Output-path timings: impact to first sample, mixer capacity, recovery, solenoid round trip.
 
@@ -305,9 +311,11 @@ def _latency(text: str | float) -> str | float:
 
 def bench_helmet(
     scene: Path = typer.Argument(Path("scenes/helmet_4.yaml"), help="A scene with a head of several actuators."),
-    object: str = typer.Option("concrete-brick", help="The object that falls (a key of the scene's effects)."),
-    velocity: float = typer.Option(2.6, min=0.0, max=100.0, help="Its impact velocity (m/s)."),
-    plot: Optional[Path] = typer.Option(None, help="Write the recorded impacts and their levels to this PNG."),
+    object: str = typer.Option("concrete-brick", metavar="OBJECT",
+                               help="The object that falls (a key of the scene's effects)."),
+    velocity: float = typer.Option(2.6, metavar="M/S", min=0.0, max=100.0, help="Its impact velocity (m/s)."),
+    plot: Optional[Path] = typer.Option(None, metavar="PNG",
+                                        help="Write the recorded impacts and their levels to this PNG."),
 ):
     """A head of several actuators on a multi-channel PulseAudio null sink: impacts on the first, second and last
     site and between the first two, recorded back, each channel's level against the layout's (dB)."""
@@ -336,9 +344,11 @@ def bench_helmet(
                                                    f"{cap.expected_db.shape[1]}-channel null sink")
         typer.echo(f"wrote {plot}")
 def bench_safety(
-    runs: int = typer.Option(5, min=1, max=100, help="times each case is run"),
-    only: str = typer.Option("", help="comma-separated case names to run (default: all; see --list)"),
-    flood_s: float = typer.Option(10.0, min=0.5, max=120.0, help="seconds of the OSC flood into `hapticfx serve`"),
+    runs: int = typer.Option(5, metavar="COUNT", min=1, max=100, help="times each case is run"),
+    only: str = typer.Option("", metavar="NAME,...",
+                             help="comma-separated case names to run (default: all; see --list)"),
+    flood_s: float = typer.Option(10.0, metavar="SECONDS", min=0.5, max=120.0,
+                                  help="seconds of the OSC flood into `hapticfx serve`"),
     list_cases: bool = typer.Option(False, "--list", help="list the cases and exit"),
 ) -> None:
     """Rerun every case of the safety probe (issue 31) and print, per case, the limit that applies, the

@@ -20,12 +20,14 @@ from hapticfx.timing import measure, ms, table
 
 
 def bench_table(
-    weights: Optional[Path] = typer.Option(None, "--weights", help="Checkpoint directory (default: the shipped "
+    weights: Optional[Path] = typer.Option(None, "--weights", metavar="DIR",
+                                           help="Checkpoint directory (default: the shipped "
                                            "ConvBiLSTM for builtin:helmet-drops)."),
-    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", help="The dataset the table covers."),
-    velocities: int = typer.Option(10_000, "--velocities", min=10, help="Random velocities compared."),
-    repeats: int = typer.Option(50, "--repeats", min=5, help="Timed lookups and inferences."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the random velocities."),
+    dataset: str = typer.Option("builtin:helmet-drops", "--dataset", "-d", metavar="DATASET",
+                                help="The dataset the table covers."),
+    velocities: int = typer.Option(10_000, "--velocities", metavar="COUNT", min=10, help="Random velocities compared."),
+    repeats: int = typer.Option(50, "--repeats", metavar="COUNT", min=5, help="Timed lookups and inferences."),
+    seed: int = typer.Option(0, "--seed", metavar="SEED", help="Seed of the random velocities."),
 ):
     """Velocity table against direct inference: largest difference, jumps at recorded velocities, run time."""
     from hapticfx.data.dataset import open_dataset

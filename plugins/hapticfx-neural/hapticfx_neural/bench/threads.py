@@ -67,12 +67,17 @@ def busy_processes(n: int):
 
 
 def threads(
-    counts: str = typer.Option("1,2", "--counts", help="Comma-separated torch thread counts to compare."),
-    repeats: int = typer.Option(50, "--repeats", min=5, help="Timed inferences per thread count (batch 1)."),
-    epochs: int = typer.Option(3, "--epochs", min=0, help="Timed training epochs per thread count (0: skip)."),
-    config: Path = typer.Option(SHIPPED_CONFIG, "--config", help="Training configuration (default: the shipped "
+    counts: str = typer.Option("1,2", "--counts", metavar="COUNT,...",
+                               help="Comma-separated torch thread counts to compare."),
+    repeats: int = typer.Option(50, "--repeats", metavar="COUNT", min=5,
+                                help="Timed inferences per thread count (batch 1)."),
+    epochs: int = typer.Option(3, "--epochs", metavar="COUNT", min=0,
+                               help="Timed training epochs per thread count (0: skip)."),
+    config: Path = typer.Option(SHIPPED_CONFIG, "--config", metavar="YAML",
+                                help="Training configuration (default: the shipped "
                                 "ConvBiLSTM's)."),
-    busy: int = typer.Option(0, "--busy", min=0, max=64, help="Keep this many other processes busy while measuring "
+    busy: int = typer.Option(0, "--busy", metavar="COUNT", min=0, max=64,
+                             help="Keep this many other processes busy while measuring "
                              "(a simulator's own threads compete for the cores too)."),
 ):
     """Torch threads against inference latency and training time on this machine (ratios to the first count)."""
