@@ -45,8 +45,9 @@ def synth(
                                           "hapticfx/datasets/heldout/README.md."),
     spec: Optional[Path] = typer.Option(None, "--spec", metavar="YAML",
                                         help="YAML spec: other objects (mass, size, material), "
-                                        "velocities per object, drops, seed, helmet and sensor (see docs/physics.md; "
-                                        "not with --objects, --velocities, --drops, --seed)."),
+                                        "velocities per object, drops, seed, helmet and sensor (see docs/physics.md), "
+                                        "or an impact family's effect file with its velocities (docs/families.md); "
+                                        "not with --objects, --velocities, --drops, --seed."),
 ):
     """Simulate drops on the helmet rig and write a dataset (raw 3-axis recordings + banks).
 
@@ -88,7 +89,7 @@ def synth(
                                "--drops and --seed")
         s = load_spec(spec)
         path = sim.synth_dataset(out, s.objects, s.velocities, drops=s.drops, seed=s.seed, name=s.name, rig=s.rig,
-                                 workers=workers, overwrite=force, progress=say,
+                                 variation=s.variation, workers=workers, overwrite=force, progress=say,
                                  command=f"hapticfx data synth {out} --spec {spec}")
     else:
         if out is None:

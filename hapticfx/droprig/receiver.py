@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -127,11 +127,6 @@ class Receiver:
             vertical = vertical + mode.vertical * acc
         helmet_frame = np.stack([lateral * math.cos(azimuth), lateral * math.sin(azimuth), vertical], axis=-1)
         return helmet_frame @ self.mount_rotation().T
-
-    def normal_acceleration(self, states: np.ndarray, rate_hz: float) -> np.ndarray:
-        """Acceleration (m/s^2) along the impact's normal (up) at the sensor point, ``(N,)``: what a hand or body
-        on the receiver feels, the sensor's tilt and axes left out."""
-        return replace(self, mount_tilt_deg=(0.0, 0.0)).sensor_acceleration(states, rate_hz)[:, 2]
 
 
 @lru_cache(maxsize=64)

@@ -15,6 +15,18 @@
          material: ceramic, velocities_mps: [1.82, 2.66, 2.94]}
 
 Materials come from the simulator's table (:data:`hapticfx.droprig.contact.MATERIALS`).
+
+An impact family instead (docs/families.md): its effect file gives the striker,
+the receiver, the contact law and the side that is felt; the spec gives the
+velocities, the drops, the spread and the sensor (on the felt side)::
+
+    family: ../../effects/families/football_kick.yaml   # relative to the spec
+    velocities_mps: [5, 10, 20, 40]                      # within the effect's max_velocity_mps
+    drops: 5
+    variation: {tilt_deg: 1.0, offset_mm: 2.0, stiffness_frac: 0.05}   # any spec: the drop-to-drop spread
+    rig:
+      sensor: {range_g: 500, sensitivity_v_per_g: 0.01}
+
 Unknown keys, wrong types and out-of-range numbers are errors naming the file and key.
 """
 
@@ -30,12 +42,12 @@ from ..objects import ObjectInfo
 from .contact import MATERIALS
 from .receiver import RECEIVERS, Receiver, ShellMode
 from .sensor import Accelerometer
-from .synth import BUILTIN_DROPS, BUILTIN_SEED, Rig
+from .synth import BUILTIN_DROPS, BUILTIN_SEED, Rig, Variation
 
 
 @dataclass(frozen=True)
 class SynthSpec:
-    """A parsed spec: the objects with their own velocities, the rig, drops, seed and name."""
+    """A parsed spec: the objects with their own velocities, the rig, drops, seed, name and drop-to-drop spread."""
 
     objects: list[ObjectInfo]
     velocities: dict[str, list[float]]
@@ -43,6 +55,7 @@ class SynthSpec:
     drops: int
     seed: int
     name: str | None
+    variation: Variation | None = None
 
 
 def _check_keys(value, allowed, source: str, key: str) -> dict:
@@ -99,11 +112,70 @@ def _modes(value, source: str, key: str) -> tuple[ShellMode, ...]:
     return tuple(modes)
 
 
+def _variation(value, source: str) -> Variation | None:
+    if value is None:
+        return None
+    given = _check_keys(value, [f.name for f in dataclasses.fields(Variation)], source, "variation")
+    return Variation(**{k: float(_number(v, source, f"variation.{k}", minimum=0.0, maximum=1e3))
+                        for k, v in given.items()})
+
+
+def _family(data: dict, rig_cfg: dict, path: Path) -> tuple[list[ObjectInfo], dict[str, list[float]], Rig]:
+    """The striker, its velocities and the rig of a ``family:`` spec (the effect's contact model)."""
+    from ..effect import check_effect, load_effect
+
+    source = str(path)
+    if "objects" in data:
+        raise EffectError("a family's effect gives the striker; drop 'objects'", source=source, key="objects")
+    for key in ("receiver", "helmet"):
+        if key in rig_cfg:
+            raise EffectError("a family's effect names its receiver; drop it here", source=source, key=f"rig.{key}")
+    value = data["family"]
+    if not isinstance(value, str) or not value:
+        raise EffectError("expected the path of an effect file on the contact model", source=source, key="family")
+    effect_path = Path(path).parent / value
+    if not effect_path.is_file():
+        raise EffectError(f"no effect file {effect_path}", source=source, key="family")
+    effect = load_effect(effect_path)
+    if effect.model.type != "contact":
+        raise EffectError(f"{effect_path}: model.type is {effect.model.type!r}; a family simulates an effect on the "
+                          "contact model", source=source, key="family")
+    plan = check_effect(effect)
+    model = plan.model_cls(plan.model_params, effect.context(device=None))
+    info = model.object_for(effect.object_id)
+    vmax = model.params.max_velocity_mps
+    vs = data.get("velocities_mps")
+    if not isinstance(vs, list) or len(vs) < 2:
+        raise EffectError("expected a list of at least 2 velocities", source=source, key="velocities_mps")
+    velocities = [_number(v, source, "velocities_mps", minimum=1e-3, maximum=vmax) for v in vs]
+    sensor = Accelerometer(**_fields(Accelerometer, rig_cfg.get("sensor") or {}, source, "rig.sensor"))
+    return [info], {info.id: velocities}, Rig(helmet=model.receiver_model(), sensor=sensor, strike=model.strike)
+
+
 def load_spec(path: Path) -> SynthSpec:
     """Read and validate a simulation spec (safe YAML loader, strict keys)."""
     source = str(path)
-    data = _check_keys(read_yaml(Path(path)), ["name", "seed", "drops", "rig", "objects"], source, "spec")
+    data = _check_keys(read_yaml(Path(path)),
+                       ["name", "seed", "drops", "rig", "objects", "family", "velocities_mps", "variation"],
+                       source, "spec")
     rig_cfg = _check_keys(data.get("rig") or {}, ["receiver", "helmet", "sensor"], source, "rig")
+    if "family" in data:
+        objects, velocities, rig = _family(data, rig_cfg, Path(path))
+    else:
+        if "velocities_mps" in data:
+            raise EffectError("velocities go with each object (objects[i].velocities_mps), or with a family",
+                              source=source, key="velocities_mps")
+        objects, velocities, rig = _objects(data, rig_cfg, source)
+    return SynthSpec(objects, velocities, rig,
+                     int(_number(data.get("drops", BUILTIN_DROPS), source, "drops", minimum=1, maximum=1000,
+                                 integer=True)),
+                     int(_number(data.get("seed", BUILTIN_SEED), source, "seed", minimum=0, maximum=2**32 - 1,
+                                 integer=True)),
+                     data.get("name"), _variation(data.get("variation"), source))
+
+
+def _objects(data: dict, rig_cfg: dict, source: str) -> tuple[list[ObjectInfo], dict[str, list[float]], Rig]:
+    """The objects, their velocities and the rig of a drop-rig spec."""
     base = rig_cfg.get("receiver", "helmet")
     if base not in RECEIVERS:
         raise EffectError(f"unknown receiver {base!r}; shipped: {', '.join(RECEIVERS)}", source=source,
@@ -137,9 +209,4 @@ def load_spec(path: Path) -> SynthSpec:
                                   tuple(_number(d, source, f"{where}.dimensions_mm", minimum=0.0, maximum=5000.0)
                                         for d in dims), material))
         velocities[o["id"]] = [_number(v, source, f"{where}.velocities_mps", minimum=0.05, maximum=50.0) for v in vs]
-    return SynthSpec(objects, velocities, Rig(helmet=helmet, sensor=sensor),
-                     int(_number(data.get("drops", BUILTIN_DROPS), source, "drops", minimum=1, maximum=1000,
-                                 integer=True)),
-                     int(_number(data.get("seed", BUILTIN_SEED), source, "seed", minimum=0, maximum=2**32 - 1,
-                                 integer=True)),
-                     data.get("name"))
+    return objects, velocities, Rig(helmet=helmet, sensor=sensor)

@@ -22,7 +22,7 @@ import platform
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import TYPE_CHECKING, Callable, Iterable
 
 import numpy as np
 
@@ -32,6 +32,9 @@ from ..signal import valid_number, valid_signal
 from .contact import Block, DropScene, material
 from .receiver import Receiver
 from .sensor import Accelerometer
+
+if TYPE_CHECKING:
+    from .family import Strike
 
 PAPER_VELOCITIES = (2.42, 2.80, 3.13, 3.43, 3.70, 3.96, 4.20, 4.43, 4.65, 4.85, 5.05, 5.24)
 BUILTIN_NAME = "helmet-drops"
@@ -62,7 +65,9 @@ class Variation:
 
 @dataclass(frozen=True)
 class Rig:
-    """The simulated rig: helmet, sensor, grid and integrator settings."""
+    """The simulated rig: helmet (the receiver), sensor, grid and integrator settings; ``strike``: an impact
+    family's contact (its effect's: :mod:`hapticfx.droprig.family`) instead of a drop onto the helmet, the sensor
+    on the side the family's user feels."""
 
     helmet: Receiver = field(default_factory=Receiver)
     sensor: Accelerometer = field(default_factory=Accelerometer)
@@ -71,6 +76,7 @@ class Rig:
     pre_s: float = 0.15
     method: str = "LSODA"
     rtol: float = 1e-7
+    strike: "Strike | None" = None
 
     @property
     def duration_s(self) -> float:
@@ -79,7 +85,15 @@ class Rig:
     def to_dict(self) -> dict:
         d = asdict(self)
         d["helmet"]["modes"] = [asdict(m) for m in self.helmet.modes]
+        if self.strike is None:
+            del d["strike"]
         return d
+
+    def up(self) -> np.ndarray:
+        """Up in the sensor's axes: the sensor reads +1 g along it at rest."""
+        if self.strike is not None:
+            return self.strike.up(self.helmet)
+        return self.helmet.mount_rotation() @ np.array([0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -109,7 +123,8 @@ def scene_for(info: ObjectInfo, drop: Drop, helmet: Receiver) -> DropScene:
 def simulate_drop(info: ObjectInfo, drop: Drop, *, rig: Rig | None = None, duration_s: float | None = None) -> np.ndarray:
     """Acceleration at the sensor (m/s^2, sensor axes, no gravity), ``(N, 3)`` at ``rig.fine_rate_hz``.
 
-    Time 0 is the release, 0.2 mm above the helmet. Velocity 0 is no impact: zeros.
+    Time 0 is the release, 0.2 mm above the helmet, or a family's first contact (``rig.strike``: the
+    acceleration on the side its user feels). Velocity 0 is no impact: zeros.
     """
     rig = rig or Rig()
     valid_number(drop.velocity, name="velocity", minimum=0.0, maximum=1000.0)
@@ -117,21 +132,26 @@ def simulate_drop(info: ObjectInfo, drop: Drop, *, rig: Rig | None = None, durat
     n = int(round(duration * rig.fine_rate_hz)) + 1
     if drop.velocity == 0.0:
         return np.zeros((n, 3))
-    scene = scene_for(info, drop, rig.helmet)
-    sol = scene.integrate(duration, method=rig.method, rtol=rig.rtol)
-    t = np.arange(n) / rig.fine_rate_hz
-    states = sol.sol(np.minimum(t, sol.t[-1]))
-    acc = rig.helmet.sensor_acceleration(states, rig.fine_rate_hz, azimuth=drop.azimuth)
+    if rig.strike is not None:
+        acc = rig.strike.response(info, drop, rig.helmet, n, rig.fine_rate_hz, rtol=rig.rtol, azimuth=drop.azimuth)
+    else:
+        scene = scene_for(info, drop, rig.helmet)
+        sol = scene.integrate(duration, method=rig.method, rtol=rig.rtol)
+        t = np.arange(n) / rig.fine_rate_hz
+        states = sol.sol(np.minimum(t, sol.t[-1]))
+        acc = rig.helmet.sensor_acceleration(states, rig.fine_rate_hz, azimuth=drop.azimuth)
     if not np.all(np.isfinite(acc)):
         raise DatasetError(f"simulation of {info.id} at {drop.velocity} m/s produced non-finite values")
     return acc
 
 
 def plan_drops(info: ObjectInfo, velocities, n_drops: int, rng: np.random.Generator,
-               variation: Variation | None = None) -> list[list[Drop]]:
-    """Draw the pose of every drop: ``[velocity][drop]``."""
+               variation: Variation | None = None, strike: "Strike | None" = None) -> list[list[Drop]]:
+    """Draw the pose of every drop: ``[velocity][drop]``, around a flat landing on the crown with the object's
+    material, or around the impact a family's ``strike`` describes."""
     var = variation or Variation.for_object(info)
     mat = material(info.material)
+    centre = strike.centre(info, 1.0) if strike is not None else Drop(1.0, stiffness=mat.stiffness, damping=mat.damping)
     plan = []
     for v in velocities:
         row = []
@@ -139,12 +159,12 @@ def plan_drops(info: ObjectInfo, velocities, n_drops: int, rng: np.random.Genera
             z = rng.standard_normal(6)
             row.append(Drop(
                 velocity=max(float(v) * (1 + var.velocity_frac * z[0]), 0.0),
-                tilt=math.radians(var.tilt_deg * z[1]),
-                offset=var.offset_mm * 1e-3 * z[2],
+                tilt=centre.tilt + math.radians(var.tilt_deg * z[1]),
+                offset=centre.offset + var.offset_mm * 1e-3 * z[2],
                 spin=var.spin_rad_s * z[3],
                 azimuth=math.radians(30.0 + var.azimuth_deg * z[4]),
-                stiffness=mat.stiffness * math.exp(var.stiffness_frac * z[5]),
-                damping=mat.damping,
+                stiffness=centre.stiffness * math.exp(var.stiffness_frac * z[5]),
+                damping=centre.damping,
             ))
         plan.append(row)
     return plan
@@ -154,7 +174,7 @@ def _record_one(args) -> np.ndarray:
     info, drop, rig, seed = args
     rng = np.random.default_rng(seed)
     acc = simulate_drop(info, drop, rig=rig)
-    up = rig.helmet.mount_rotation() @ np.array([0.0, 0.0, 1.0])
+    up = rig.up()
     start = rig.pre_s + rng.uniform(0.0, 1.0 / rig.sensor.rate_hz)  # DAQ clock phase
     return rig.sensor.read(acc, rig.fine_rate_hz, start_s=start, n_samples=rig.n_samples, rng=rng, gravity_axis=up)
 
@@ -194,7 +214,7 @@ def record_drops(info: ObjectInfo, velocities, n_drops: int, *, seed: int, rig: 
         raise DatasetError(f"drops must be a positive integer, got {n_drops!r}")
     ss = np.random.SeedSequence([int(seed), *info.id.encode()])
     plan_seed, noise_seed = ss.spawn(2)
-    plan = plan_drops(info, v, int(n_drops), np.random.default_rng(plan_seed), variation)
+    plan = plan_drops(info, v, int(n_drops), np.random.default_rng(plan_seed), variation, rig.strike)
     seeds = noise_seed.generate_state(len(v) * n_drops).reshape(len(v), n_drops)
     jobs = [(info, plan[i][j], rig, int(seeds[i, j])) for i in range(len(v)) for j in range(n_drops)]
     say = progress or (lambda message: None)
@@ -211,11 +231,13 @@ def record_drops(info: ObjectInfo, velocities, n_drops: int, *, seed: int, rig: 
 
 def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VELOCITIES, *,
                   drops: int = BUILTIN_DROPS, seed: int = BUILTIN_SEED, name: str | None = None,
-                  rig: Rig | None = None, workers: int | None = 1, overwrite: bool = False,
-                  progress: Callable[[str], None] | None = None, command: str | None = None) -> Path:
+                  rig: Rig | None = None, variation: Variation | None = None, workers: int | None = 1,
+                  overwrite: bool = False, progress: Callable[[str], None] | None = None,
+                  command: str | None = None) -> Path:
     """Simulate every object's drops and write a dataset (raw + banks for both reducers) to ``out``.
 
-    ``velocities``: one list for every object, or a mapping object id -> its own list.
+    ``velocities``: one list for every object, or a mapping object id -> its own list. ``variation``: the
+    drop-to-drop spread of every object (default: :meth:`Variation.for_object`).
     """
     from ..data.build import ObjectRecordings, build_dataset
 
@@ -230,7 +252,8 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
     started = time.perf_counter()
     recordings = [
         ObjectRecordings(info, per_object[info.id], record_drops(info, per_object[info.id], drops, seed=seed, rig=rig,
-                                                                 workers=workers, progress=progress))
+                                                                 variation=variation, workers=workers,
+                                                                 progress=progress))
         for info in objects
     ]
     from .. import __version__ as hapticfx_version
@@ -247,7 +270,7 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
         "python": platform.python_version(),
         "rig": rig.to_dict(),
         "materials": {o.id: asdict(material(o.material)) for o in objects},
-        "variation": {o.id: asdict(Variation.for_object(o)) for o in objects},
+        "variation": {o.id: asdict(variation or Variation.for_object(o)) for o in objects},
         "simulation_s": round(time.perf_counter() - started, 2),
     }
     return build_dataset(

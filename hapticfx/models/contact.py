@@ -84,6 +84,7 @@ class ContactModel(Model):
         import scipy.signal  # noqa: F401
 
         from ..droprig.contact import MATERIALS
+        from ..droprig.family import Strike
         from ..droprig.receiver import RECEIVERS
         from ..registry import get_registry
 
@@ -106,6 +107,8 @@ class ContactModel(Model):
         self._lock = threading.Lock()
         self._tables: dict[str, "PhysicsTable"] = {}
         self._press: dict[str, np.ndarray] = {}  # per object: what the hold force alone does
+        self.strike = Strike(stiffness=params.stiffness, damping=params.damping, tilt=math.radians(params.tilt_deg),
+                             offset=params.offset_mm * 1e-3, hold_n=params.hold_n, felt=params.felt)
 
     def object_for(self, object_id: str) -> ObjectInfo:
         p = self.params
@@ -123,18 +126,11 @@ class ContactModel(Model):
         The scene's state is sampled ``n_fine - lead`` times at ``fine_rate_hz``
         from the first contact; ``lead`` fine samples of silence come before it.
         """
-        from ..droprig.contact import material
-        from ..droprig.synth import Drop, scene_for
-
         p = self.params
-        n = max(1, int(round(p.duration_ms * p.rate_hz / 1000.0)))
+        n = self.n_samples
         over = max(1, math.ceil(FINE_RATE_HZ / p.rate_hz))
         fine_rate = p.rate_hz * over
-        mat = material(info.material)
-        drop = Drop(velocity, tilt=math.radians(p.tilt_deg), offset=p.offset_mm * 1e-3,
-                    stiffness=p.stiffness if p.stiffness is not None else mat.stiffness,
-                    damping=p.damping if p.damping is not None else mat.damping)
-        scene = replace(scene_for(info, drop, self.receiver_model()), gap=0.0, gravity=p.hold_n / info.mass_kg)
+        scene = self.strike.scene(info, self.strike.centre(info, velocity), self.receiver_model())
         return scene, fine_rate, n * over, min(n * over, int(round(p.pre_ms / 1000.0 * fine_rate)))
 
     def receiver_model(self):
@@ -152,32 +148,24 @@ class ContactModel(Model):
     def _raw(self, info: ObjectInfo, velocity: float) -> np.ndarray:
         """What is felt at ``velocity`` by integrating the contact, in g: ``(N,)``, or ``(N * 3,)`` for the
         3-axis sensor (time-major) before its reducer; with a hold force, less what the press alone does."""
-        out = self._integrated(info, velocity)
-        if self.params.hold_n > 0.0 and velocity > 0.0:
-            if info.id not in self._press:
-                self._press[info.id] = self._integrated(info, 0.0)
-            out = out - self._press[info.id]
-        return out
-
-    def _integrated(self, info: ObjectInfo, velocity: float) -> np.ndarray:
         from ..droprig.hertz import G
-        from ..droprig.state import JY
 
         p = self.params
         n, axes = self.n_samples, 3 if p.felt == "sensor" else 1
-        if velocity == 0.0 and p.hold_n == 0.0:
+        if velocity == 0.0:  # no impact (with a hold force: the press less itself)
             return np.zeros(n * axes)
         scene, fine_rate, n_fine, lead = self.scene(info, velocity)
-        acc = np.zeros((n_fine, axes))
+        acc = np.zeros((n_fine, 3))
         if lead < n_fine:
-            states = scene.sample(n_fine - lead, fine_rate, rtol=RTOL)
-            if p.felt == "sensor":
-                acc[lead:] = scene.helmet.sensor_acceleration(states, fine_rate)
-            elif p.felt == "receiver":
-                acc[lead:, 0] = scene.helmet.normal_acceleration(states, fine_rate)
-            else:  # the striker: the contact force on it (averaged over each fine sample) over its mass
-                force = np.diff(states[JY], prepend=0.0) * fine_rate
-                acc[lead:, 0] = force / scene.block.mass
+            receiver, press = scene.helmet, None
+            if p.hold_n > 0.0:
+                press = self._press.get(info.id)
+                if press is None:
+                    press = self._press[info.id] = self.strike.response(
+                        info, self.strike.centre(info, 0.0), receiver, n_fine - lead, fine_rate, rtol=RTOL)
+            acc[lead:] = self.strike.response(info, self.strike.centre(info, velocity), receiver, n_fine - lead,
+                                              fine_rate, rtol=RTOL, press=press)
+        acc = acc if p.felt == "sensor" else acc[:, 2:]
         return (acc.reshape(n, n_fine // n, axes).mean(axis=1) / G).reshape(-1)
 
     def _finish(self, raw: np.ndarray) -> np.ndarray:
