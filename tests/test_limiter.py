@@ -164,3 +164,49 @@ def test_a_run_of_blocks_at_once_is_the_same_as_block_by_block(limits, amp):
             assert clock == pytest.approx(w[2], abs=1e-12)
         assert one.report() == many.report()
         t += x.size / RATE + 0.01 * run  # then a gap of silence
+
+
+def _splice(out: np.ndarray, cuts: list[tuple[int, int]]) -> np.ndarray:
+    """``out`` as a device that cut ``(where, how many)`` samples out of it plays it: the rest joined, no
+    silence in between (what a sound server did around underruns, issue 31)."""
+    keep = np.ones(out.size, dtype=bool)
+    for where, n in cuts:
+        keep[where:where + n] = False
+    return out[keep]
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(arrays(np.float64, st.integers(1, 40), elements=st.floats(-5, 5)), min_size=3, max_size=10),
+       st.lists(st.tuples(st.integers(0, 300), st.integers(1, 3)), max_size=4))
+def test_rms_holds_where_the_device_cuts_up_to_the_splice_out_of_each_window(blocks, cuts):
+    """20-sample window, 3-sample splice: with at most 3 samples cut from any stretch of 23, what the device
+    plays holds the limit (cuts spread so that no 23-sample stretch loses more than 3)."""
+    limits = SafetyLimits(peak=1.0, rms=0.3, rms_window_s=0.02)
+    lim = SafetyLimiter(limits, RATE, splice_s=0.003)
+    out = np.concatenate([lim.process(b) for b in blocks])
+    spaced, last = [], -10**9
+    for where, n in sorted(cuts):
+        if where >= last + 23:  # one cut per 23 samples: no window of 20 played spans more than 23 of ours
+            spaced.append((where, n))
+            last = where + n
+    played = _splice(out, spaced)
+    if len(played) >= 20:
+        assert np.max(windowed_rms(played, 20)) <= 0.3 * (1 + 1e-9)
+
+
+def test_without_a_splice_allowance_a_cut_brings_a_window_over_the_limit():
+    """The case the allowance is for: a burst, a quiet stretch, a burst, each block as loud as its windows
+    allow; the device cuts part of the quiet stretch out and the bursts come closer: over the limit, unless
+    the limiter left room for the cut."""
+    blocks = [np.full(10, 5.0), np.zeros(10), np.full(10, 5.0)]
+    cut = [(10, 3)]
+    limits = SafetyLimits(peak=1.0, rms=0.3, rms_window_s=0.02)
+    plain = SafetyLimiter(limits, RATE)
+    out = np.concatenate([plain.process(b) for b in blocks])
+    assert np.max(windowed_rms(out, 20)) <= 0.3 * (1 + 1e-9)
+    assert np.max(windowed_rms(_splice(out, cut), 20)) > 0.3 * 1.05
+    guarded = SafetyLimiter(limits, RATE, splice_s=0.003)
+    out = np.concatenate([guarded.process(b) for b in blocks])
+    assert np.max(windowed_rms(_splice(out, cut), 20)) <= 0.3 * (1 + 1e-9)
+    steady = guarded.process(np.full(200, 5.0))  # what the allowance costs a steady output: sqrt(20 / 23)
+    assert np.max(windowed_rms(steady, 20)) == pytest.approx(0.3 * np.sqrt(20 / 23), rel=1e-6)

@@ -24,6 +24,10 @@ from hapticfx.safety import LimiterReport, SafetyLimiter
 
 RING_S = 8.0  # the longest impact the ring holds; a longer one is cut (and counted)
 DEFAULT_MAX_VOICES = 1000
+# PulseAudio, around an underrun, was seen to cut up to 104 frames (2.2 ms at 48 kHz) out of a stream and
+# join the rest without silence (a flood beside a CPU hog, the sink's monitor against the limiter's output):
+# the limiters leave room for a cut this long in every RMS window (SafetyLimiter's `splice_s`).
+SPLICE_S = 0.003
 
 
 class Mixer:
@@ -56,7 +60,7 @@ class Mixer:
     def set_limits(self, channel: int, limits: SafetyLimits) -> None:
         """Give ``channel`` its actuators' (effective, combined) safety limits; a channel that has a limiter
         already goes on from its state (what it sent stays in the windows)."""
-        new = SafetyLimiter(limits, self.rate_hz)
+        new = SafetyLimiter(limits, self.rate_hz, splice_s=SPLICE_S)
         with self._lock:
             old = self._limiters[channel]
             if old is not None:

@@ -26,14 +26,10 @@ def test_late_writes_into_the_queue_keep_the_limits(soundserver):
 
 
 def test_a_portaudio_stream_keeps_the_limits(soundserver):
-    """Held before and after. The limiter's output is exact (the mixer tests); at the device, an underrun lets
-    ALSA's recovery move frames, and once in five runs at load 22 a window came to 0.2002: then the RMS is held
-    to 0.5 % here, and the bench reports it."""
-    v = probe.portaudio_flood(150)
-    if " 0 underflows" in v.note:
-        check(v)
-    else:
-        assert v.samples_over == 0 and v.rms <= 0.2 * 1.005, v
+    """Held before and after. Around an underrun PulseAudio cut up to 104 frames out of the stream and joined
+    the rest without silence, which brought a window to 0.2001-0.2012 in 7 of 66 runs beside a CPU hog; the
+    limiters now leave room for a 3 ms cut in every window (mixer.SPLICE_S), underflows or not."""
+    check(probe.portaudio_flood(150))
 
 
 @pytest.mark.parametrize("case", ["helmet-and-channel-0", "default-and-sink-name", "pulse-and-default",
