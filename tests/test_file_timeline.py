@@ -256,3 +256,30 @@ def test_timeline_moves_an_impact_older_than_what_is_written_and_counts_it(tmp_p
     x = np.concatenate(written, axis=1)[0]
     assert t.late == 1 and x.size == 2010
     assert np.all(x[1500:1510] == 0.2) and np.all(x[2000:2010] == 0.1) and np.all(x[10:1500] == 0)
+
+
+def test_two_effects_with_their_own_wav_actuator_on_one_path_write_one_file_limited_as_one(tmp_path):
+    """Each with its own actuator section, both at one path: one output (one file, one limiter on the sum),
+    not two files of which the last to close would be all that is left at the path."""
+    out = tmp_path / "both.wav"
+    own = f"{{type: wav, path: {out}, rate_hz: 8000, format: float32, limits: {{peak: 0.5, rms: 0.3}}}}"
+    scene = tmp_path / "two.yaml"
+    scene.write_text(f"""
+name: two files in one
+effects:
+  concrete-brick: {{inline: {{name: brick, object: concrete-brick, model: {{type: kinetic-energy}}, actuator: {own}}}}}
+  steel-plate: {{inline: {{name: steel, object: steel-plate, model: {{type: kinetic-energy}}, actuator: {own}}}}}
+engine: {{queue_size: 1000}}
+""")
+    with Engine(scene) as engine:
+        assert len(engine.stats()["outputs"]) == 1
+        for k in range(40):
+            engine.impact("concrete-brick" if k % 2 else "steel-plate", 6.0, at=k * 0.002)
+        engine.close()
+    rate, data = read_wav(out)
+    x = data.reshape(-1).astype(np.float64)
+    assert rate == 8000 and np.abs(x).max() <= 0.5 + 1e-6
+    win = int(0.05 * rate)
+    c = np.concatenate([[0.0], np.cumsum(x * x)])
+    assert np.sqrt((c[win:] - c[:-win]) / win).max() <= 0.3 * (1 + 1e-6)
+    assert x.size >= 0.078 * rate  # both effects' impacts are in it, 2 ms apart over 78 ms

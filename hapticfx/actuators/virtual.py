@@ -104,6 +104,11 @@ class _FileActuator(Actuator):
         self._failed: DeviceError | None = None
         self._lock = threading.Lock()
 
+    def output_key(self):
+        """The file: scene entries and effects that name one path write one file, summed and limited as
+        one (each writing its own would leave only the last at the path)."""
+        return "file", str(self.path.resolve())
+
     @abc.abstractmethod
     def _writer(self, channels: int):
         """A new streamed file writer (:mod:`hapticfx.actuators.files`) for ``channels`` channels."""
