@@ -53,6 +53,7 @@ class StimulusPlayer:
         self.realtime = realtime
         self._played: queue.SimpleQueue = queue.SimpleQueue()
         self.engine = Engine(study_scene(study, schedule), device=device, on_played=self._played.put)
+        self._failed = 0  # impacts the engine failed so far (a failure ends the play, so none goes unseen)
 
     def play(self, slot: Slot, gap_s: float) -> list:
         """Play the slot's impacts in order, ``gap_s`` apart; returns their :class:`~hapticfx.engine.Playback`
@@ -61,16 +62,16 @@ class StimulusPlayer:
         for k, (velocity, drop) in enumerate(zip(slot.velocities, slot.drops)):
             if k and self.realtime:
                 time.sleep(gap_s)
-            failed = self.engine.stats()["failed"]
             self.engine.impact(entry_id(slot.stimulus, drop), velocity)
             deadline = time.monotonic() + 30.0
             while True:
                 try:
                     played = self._played.get(timeout=0.05)
                     break
-                except queue.Empty:
+                except queue.Empty:  # stats() sums every limiter's report: asked only while an impact is late
                     stats = self.engine.stats()
-                    if stats["failed"] > failed or time.monotonic() > deadline:
+                    if stats["failed"] > self._failed or time.monotonic() > deadline:
+                        self._failed = stats["failed"]
                         raise DeviceError(
                             f"playing {slot.stimulus} at {velocity} m/s failed: {stats['errors'] or 'timed out'}") from None
             out.append(played)
