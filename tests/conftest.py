@@ -60,3 +60,24 @@ def served(tmp_path):
         with StudyServer(session) as server:
             yield session, server, player
         session.close()
+
+
+@pytest.fixture(scope="session")
+def docs_studies():
+    """scripts/docs_studies.py as a module (it regenerates docs/studies.md's simulated results)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "docs_studies.py"
+    spec = importlib.util.spec_from_file_location("docs_studies", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="session")
+def paper_analyses(tmp_path_factory, docs_studies):
+    """The paper's two studies simulated (all their participants, memory actuators) and analysed, once per run:
+    {"study1": Analysis, "study2": Analysis}."""
+    pytest.importorskip("pandas")
+    pytest.importorskip("statsmodels")
+    return docs_studies.analyses(tmp_path_factory.mktemp("paper-studies"))

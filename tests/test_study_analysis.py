@@ -118,7 +118,8 @@ def test_analyze_a_simulated_run_end_to_end(tmp_path, capsys):
     matched = [a for a in answers if a["kind"] == "matching"]
     assert confusion["count"].sum() == len(matched)
     correct = sum(a["correct"] for a in matched)
-    assert f"match: {100 * correct / len(matched):.1f}% correct ({len(matched)} answers, 6 participants)" in out
+    assert f"match: {100 * correct / len(matched):.1f}% correct, chance 50% ({len(matched)} answers, 6 participants)" in out
+    assert "6 simulated participants" in out
 
 
 def test_analyze_refuses_a_folder_without_results(tmp_path, capsys):

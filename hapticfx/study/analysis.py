@@ -47,6 +47,7 @@ def tidy(records: dict[str, list[dict]]):
             if r["kind"] == "matching":
                 chosen = next(s for s in r["slots"] if s["stimulus"] == r["chosen_stimulus"])
                 rows.append({**base, "question": None, "rating": None, "choice": r["response"]["choice"],
+                             "alternatives": len(r["slots"]) - 1,
                              "chosen_stimulus": r["chosen_stimulus"], "correct": r["correct"],
                              "target_level": slots[first]["factors"][r["match_by"]],
                              "chosen_level": chosen["factors"][r["match_by"]]})
@@ -181,6 +182,7 @@ class MatchingResult:
     per_level_pct: dict
     answers: int
     participants: int
+    chance_pct: float  # percent correct by guessing: 100 / the number of comparisons, averaged over trials
 
 
 def analyse_matching(frame, task: str) -> MatchingResult:
@@ -189,7 +191,8 @@ def analyse_matching(frame, task: str) -> MatchingResult:
     levels = sorted(set(d.target_level) | set(d.chosen_level))
     confusion = pd.crosstab(d.target_level, d.chosen_level).reindex(index=levels, columns=levels, fill_value=0)
     per_level = {lvl: 100.0 * float(d[d.target_level == lvl].correct.mean()) for lvl in levels if (d.target_level == lvl).any()}
-    return MatchingResult(task, confusion, 100.0 * float(d.correct.mean()), per_level, len(d), d.participant.nunique())
+    return MatchingResult(task, confusion, 100.0 * float(d.correct.mean()), per_level, len(d), d.participant.nunique(),
+                          float((100.0 / d.alternatives).mean()))
 
 
 @dataclass
@@ -200,6 +203,13 @@ class Analysis:
     trials: Any
     ratings: list[RatingResult]
     matching: list[MatchingResult]
+    simulated: list[str] = field(default_factory=list)  # participants a simulated participant answered for
+
+    @property
+    def who(self) -> str:
+        """``12 simulated participants``, ``12 participants, 3 simulated`` or ``12 participants``."""
+        n, k = self.trials.participant.nunique(), len(self.simulated)
+        return f"{n} simulated participants" if k and k == n else f"{n} participants" + (f", {k} simulated" if k else "")
 
 
 def analyse(records: dict[str, list[dict]]) -> Analysis:
@@ -213,7 +223,8 @@ def analyse(records: dict[str, list[dict]]) -> Analysis:
             matching.append(analyse_matching(frame, task))
         else:
             ratings += [analyse_ratings(frame, task, q) for q in dict.fromkeys(d.question)]
-    return Analysis(sessions[0]["study"] if sessions else "?", frame, ratings, matching)
+    simulated = sorted(p for p, recs in records.items() if any(r.get("type") == "session" and r.get("simulated") for r in recs))
+    return Analysis(sessions[0]["study"] if sessions else "?", frame, ratings, matching, simulated)
 
 
 def _p(p: float) -> str:
@@ -223,7 +234,7 @@ def _p(p: float) -> str:
 def report(a: Analysis) -> str:
     """A short text report: per task, the ANOVA, significant pairwise differences, recognition rates."""
     main = a.trials[~a.trials.practice.astype(bool)]
-    lines = [f"Study {a.study}: {a.trials.participant.nunique()} participants, {main.trial.groupby(main.participant).nunique().sum()} "
+    lines = [f"Study {a.study}: {a.who}, {main.trial.groupby(main.participant).nunique().sum()} "
              f"answered trials (practice excluded).", ""]
     for r in a.ratings:
         lines.append(f"{r.task} / {r.question}: {len(r.participants)} participants; factors {', '.join(r.factors)}"
@@ -249,5 +260,6 @@ def report(a: Analysis) -> str:
         lines.append("")
     for m in a.matching:
         per = ", ".join(f"{k} {v:.0f}%" for k, v in m.per_level_pct.items())
-        lines.append(f"{m.task}: {m.correct_pct:.1f}% correct ({m.answers} answers, {m.participants} participants); {per}")
+        lines.append(f"{m.task}: {m.correct_pct:.1f}% correct, chance {m.chance_pct:.0f}% ({m.answers} answers, "
+                     f"{m.participants} participants); {per}")
     return "\n".join(lines).rstrip() + "\n"
