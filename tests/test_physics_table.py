@@ -20,12 +20,13 @@ def own_cache(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("HAPTICFX_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "physics-cache"))
 
 
-def build(mapping, object_id="wood-beam"):
+def build(mapping, object_id="wood-beam", info=None):
     from hapticfx.objects import PAPER_OBJECTS
 
     cls = get_registry().get("model", "contact").resolve()
     params = parse_params(cls.Params, {**SMALL, **mapping}, source="fx.yaml", key="model")
-    return cls(params, BuildContext(source="fx.yaml", object_id=object_id, object_info=PAPER_OBJECTS[object_id]))
+    return cls(params, BuildContext(source="fx.yaml", object_id=object_id,
+                                    object_info=info or PAPER_OBJECTS[object_id]))
 
 
 def pair(mapping):
@@ -51,6 +52,27 @@ def test_a_table_is_built_once_then_read_from_the_cache_and_tied_to_the_paramete
     assert again.table.path == t.table.path and again.table.path.is_file()
     other = build({"stiffness": 3.1e6}).table_for(a.object_for("wood-beam"))
     assert other.source != t.source and other.table.path != t.table.path
+
+
+def test_a_table_is_tied_to_what_strikes_not_only_to_its_id(monkeypatch):
+    """A stylus on rubber and on aluminium (one object id, another material) never share a table."""
+    from dataclasses import replace
+
+    from hapticfx.objects import PAPER_OBJECTS
+
+    sources = []
+
+    def record(obj, profile, *, source, **kwargs):
+        sources.append(source)
+        raise LookupError("recorded")
+
+    monkeypatch.setattr(physics_table, "build", record)
+    beam = PAPER_OBJECTS["wood-beam"]
+    for info in (beam, replace(beam, material="aluminium"), replace(beam, mass_kg=2 * beam.mass_kg)):
+        model = build({"duration_ms": 21.0}, info=info)  # a table no other test builds
+        with pytest.raises(LookupError):
+            model.table_for(model.object_for("wood-beam"))
+    assert len(set(sources)) == 3
 
 
 def test_rendering_from_a_table_integrates_nothing(monkeypatch):

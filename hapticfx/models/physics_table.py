@@ -183,7 +183,8 @@ _LOCK = threading.Lock()
 def load_or_build(obj: str, profile: ProfileFn, *, v_max: float, rate_hz: float, spec: dict, reducer: str,
                   shipped: Path | None = None, progress: Callable[[str], None] | None = None) -> PhysicsTable:
     """The table for ``spec``: shipped (``shipped/<sha>.npz``), else cached, else built now and cached."""
-    digest = source_digest({**spec, "object": obj, "v_max": v_max, "rate_hz": rate_hz, "reducer": reducer})
+    # the object's id beside its description (spec["object"]: mass, size, material), which it must not replace
+    digest = source_digest({**spec, "object_id": obj, "v_max": v_max, "rate_hz": rate_hz, "reducer": reducer})
     name = f"{digest}.npz"
     with _LOCK:
         for folder in (shipped, cache_dir()):
