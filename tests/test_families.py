@@ -11,7 +11,7 @@ from hapticfx.effect import check_effect, load_effect
 from hapticfx.pipeline import Pipeline
 
 FAMILIES = sorted((Path(__file__).resolve().parents[1] / "effects" / "families").glob("*.yaml"))
-EXPECTED = {"bat_ball", "football_kick", "tapping", "wheel_bump", "tapping_rubber"}
+EXPECTED = {"bat_ball", "football_kick", "tapping", "wheel_bump", "tapping_rubber", "tapping_wood", "tapping_aluminium"}
 TABLES = FAMILIES[0].parent / "tables"
 
 
