@@ -125,3 +125,29 @@ def test_unknown_object_in_dataset(write_effect, tiny_dataset):
     p = dd_pipeline(write_effect, tiny_dataset)
     with pytest.raises(DatasetError, match="dataset 'tiny' has no object 'wood-beam'; it has: concrete-brick"):
         p.render(velocity=3.0, object="wood-beam")
+
+
+def test_recorded_drops_are_preprocessed_once_per_version_of_the_dataset(tmp_path):
+    """A study's scene holds one recorded model per drop it plays: they share one preprocessing of the object's
+    drops, read-only, and a raw file rewritten on disk is read again."""
+    import shutil
+
+    from hapticfx.data.dataset import resolve_dataset_path
+    from hapticfx.models.recorded import RecordedDropModel
+    from hapticfx.params import BuildContext
+
+    folder = tmp_path / "drops"
+    shutil.copytree(resolve_dataset_path("builtin:helmet-drops"), folder)
+    context = BuildContext(object_id="steel-plate")
+    first, third = (RecordedDropModel(RecordedDropModel.Params(dataset=str(folder), drop=d), context) for d in (0, 2))
+    velocities, drops = first.drops("steel-plate")
+    assert third.drops("steel-plate")[1] is drops and not drops.flags.writeable
+    v = float(velocities[0])
+    assert np.array_equal(third.profile("steel-plate", v), drops[0, 2]) and not np.array_equal(drops[0, 0], drops[0, 2])
+
+    raw = folder / "raw" / "steel-plate.npz"
+    arrays = dict(np.load(raw))
+    arrays["accel_g"] = arrays["accel_g"][:, ::-1].copy()  # the same drops in the reverse order
+    np.savez(raw, **arrays)
+    again = third.drops("steel-plate")[1]
+    assert again is not drops and np.array_equal(again[0, 2], drops[0, drops.shape[1] - 3])

@@ -9,6 +9,7 @@ through the same shaping, limiter and actuator as any rendered impact.
 from __future__ import annotations
 
 import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,6 +20,38 @@ from ..errors import DatasetError, SignalError
 from ..interfaces import Impact, Model
 from ..params import BuildContext, doc
 from ..signal import Signal
+
+
+# Every drop of an object, preprocessed and reduced, shared by all models that play it: a study's scene holds one
+# entry (one model) per recorded drop it plays, and each would otherwise preprocess all drops of the object again.
+# Keyed by the raw file and dataset.json (the preprocessing), each with its size and modification time, so a
+# dataset rewritten on disk is read again.
+_SHARED_DROPS: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
+_SHARED_LOCK = threading.Lock()
+_SHARED_MAX = 16
+
+
+def shared_drops(dataset: Dataset, object_id: str, reducer: str) -> tuple[np.ndarray, np.ndarray]:
+    """``velocities (V,)`` and every drop reduced ``(V, D, N)``, read-only, computed once per file version."""
+    raw, meta = dataset.path / "raw" / f"{object_id}.npz", dataset.path / "dataset.json"
+    try:
+        versions = tuple((st.st_size, st.st_mtime_ns) for st in (raw.stat(), meta.stat()))
+    except OSError:
+        raise DatasetError(f"dataset {dataset.name!r} keeps no raw drops of {object_id!r}") from None
+    key = (str(raw.resolve()), reducer, versions)
+    with _SHARED_LOCK:
+        if key in _SHARED_DROPS:
+            _SHARED_DROPS.move_to_end(key)
+            return _SHARED_DROPS[key]
+        found = recorded_drops(dataset, object_id, reducer)
+        if found is None:
+            raise DatasetError(f"dataset {dataset.name!r} keeps no raw drops of {object_id!r}")
+        for array in found:
+            array.setflags(write=False)
+        _SHARED_DROPS[key] = found
+        while len(_SHARED_DROPS) > _SHARED_MAX:
+            _SHARED_DROPS.popitem(last=False)
+        return found
 
 
 class RecordedDropModel(Model):
@@ -41,20 +74,12 @@ class RecordedDropModel(Model):
         self.params = params
         self.context = context
         self.dataset: Dataset = open_dataset(params.dataset, relative_to=context.base_dir)
-        self._drops: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        self._lock = threading.Lock()
         if context.object_id:
             self.dataset.bank(context.object_id, params.reducer)  # the object and bank exist
 
     def drops(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
-        """``velocities (V,)`` and every drop reduced ``(V, D, N)`` (read once per object)."""
-        with self._lock:
-            if object_id not in self._drops:
-                found = recorded_drops(self.dataset, object_id, self.params.reducer)
-                if found is None:
-                    raise DatasetError(f"dataset {self.dataset.name!r} keeps no raw drops of {object_id!r}")
-                self._drops[object_id] = found
-            return self._drops[object_id]
+        """``velocities (V,)`` and every drop reduced ``(V, D, N)`` (read once per object and file version)."""
+        return shared_drops(self.dataset, object_id, self.params.reducer)
 
     def profile(self, object_id: str, velocity: float) -> np.ndarray:
         bank = self.dataset.bank(object_id, self.params.reducer)
