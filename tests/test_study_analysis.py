@@ -101,6 +101,7 @@ def test_analyze_a_simulated_run_end_to_end(tmp_path, capsys):
     answers = [json.loads(line) for p in sorted(results.glob("P*.jsonl")) for line in p.read_text().splitlines()
                if '"type": "answer"' in line]
     assert len(trials) == len(answers)  # one question per rating task here: one row per answer
+    assert trials.simulated.all()  # each row says a simulated participant gave it
     # The ANOVA table is statsmodels' AnovaRM on the same answers, practice left out, repetitions averaged.
     from statsmodels.stats.anova import AnovaRM
 

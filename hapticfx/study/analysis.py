@@ -32,14 +32,17 @@ def tidy(records: dict[str, list[dict]]):
     pd = _pandas()
     rows = []
     for participant, recs in records.items():
+        simulated = False
         for r in recs:
+            if r.get("type") == "session":  # the answers that follow were given in this session
+                simulated = bool(r.get("simulated"))
             if r.get("type") != "answer":
                 continue
             slots = {s["stimulus"]: s for s in r["slots"]}
             base = {"participant": participant, "session": r["session"], "trial": r["trial"], "task": r["task"],
                     "kind": r["kind"], "cell": r["cell"], "role": r["role"], "practice": r["practice"],
                     "number": r["number"], "repetition": r["repetition"], "velocity": r["velocity"],
-                    "response_time_s": r["response_time_s"], "answered_at": r["answered_at"]}
+                    "response_time_s": r["response_time_s"], "answered_at": r["answered_at"], "simulated": simulated}
             first = r["cell"].split("|")[0]  # the stimulus a cell is about: a rated one, a target, a pair's first
             base["stimulus"] = first
             base["stimulus_b"] = r["cell"].split("|")[1] if r["kind"] == "similarity" else None
@@ -203,7 +206,7 @@ class Analysis:
     trials: Any
     ratings: list[RatingResult]
     matching: list[MatchingResult]
-    simulated: list[str] = field(default_factory=list)  # participants a simulated participant answered for
+    simulated: list[str] = field(default_factory=list)  # participants a simulated participant answered for (in part)
 
     @property
     def who(self) -> str:
@@ -223,7 +226,7 @@ def analyse(records: dict[str, list[dict]]) -> Analysis:
             matching.append(analyse_matching(frame, task))
         else:
             ratings += [analyse_ratings(frame, task, q) for q in dict.fromkeys(d.question)]
-    simulated = sorted(p for p, recs in records.items() if any(r.get("type") == "session" and r.get("simulated") for r in recs))
+    simulated = sorted(frame.participant[frame.simulated].unique())
     return Analysis(sessions[0]["study"] if sessions else "?", frame, ratings, matching, simulated)
 
 
