@@ -62,7 +62,7 @@ def table_path(dataset_path: Path, reducer: str) -> Path:
     return Path(dataset_path) / "tables" / f"{NAME}-{reducer}.table.npz"
 
 
-def _matching_drops(bank, drops) -> np.ndarray:
+def matching_drops(bank, drops) -> np.ndarray:
     velocities, reduced = drops
     idx = [np.flatnonzero(np.isclose(velocities, v, rtol=0, atol=1e-9)) for v in bank.velocities]
     if any(i.size != 1 for i in idx):
@@ -75,7 +75,7 @@ def choose_trim(data: TrainingData) -> tuple[float, dict[float, float]]:
     trim's score)."""
     scores = {t: [] for t in TRIMS}
     for obj, bank in data.banks.items():
-        drops = _matching_drops(bank, data.drops[obj])
+        drops = matching_drops(bank, data.drops[obj])
         cs = {t: centres(drops, t) for t in TRIMS}
         reps = bank.profiles
         targets = None if data.targets is None else data.targets.get(obj, bank.velocities[1:-1])
@@ -106,7 +106,7 @@ def fit_table(data: TrainingData, *, trim: float | None = None) -> VelocityTable
         trim, scores = choose_trim(data)
     intervals = {}
     for obj, bank in data.banks.items():
-        c = centres(_matching_drops(bank, data.drops[obj]), trim)
+        c = centres(matching_drops(bank, data.drops[obj]), trim)
         intervals[obj] = [Interval(np.array([0.0, 1.0]), np.stack(residuals(bank.profiles[i], bank.profiles[i + 1],
                                                                              c[i], c[i + 1])))
                           for i in range(len(bank) - 1)]
@@ -143,8 +143,11 @@ class EnsembleInterpolator(TableServed):
                                                            maximum=0.5)
         self.table: VelocityTable | None = None
 
+    fit_table = staticmethod(fit_table)  # what a subclass fits and where a dataset keeps it
+    table_path = staticmethod(table_path)
+
     def fit(self, data: TrainingData, **options) -> dict:
-        self.table = fit_table(data, trim=self.trim)
+        self.table = self.fit_table(data, trim=self.trim)
         return {"trim": self.table.meta["source"]["trim"], "loo_rmse": self.table.meta["fit"]["loo_rmse"]}
 
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
@@ -157,22 +160,22 @@ class EnsembleInterpolator(TableServed):
         if path is not None and base_dir is not None and not path.is_absolute():
             path = Path(base_dir) / path
         if path is None and dataset is not None:
-            path = table_path(dataset.path, bank.reducer)
+            path = self.table_path(dataset.path, bank.reducer)
         if path is not None and (self.table_file is not None or path.is_file()):
             table = VelocityTable.load(path)
             if self.trim is None or table.meta["source"].get("trim") == self.trim:
                 return table
         if dataset is None:
-            raise DatasetError("the ensemble interpolator needs its dataset's recorded drops or a fitted table")
+            raise DatasetError(f"the {self.name} interpolator needs its dataset's recorded drops or a fitted table")
         from ..data.training import training_data
 
-        return fit_table(training_data(dataset, bank.reducer), trim=self.trim)
+        return self.fit_table(training_data(dataset, bank.reducer), trim=self.trim)
 
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
         lo, hi, v = neighbours(lower, upper, velocity)
         found = self.blend(lo, hi, v)
         if found is None:
-            raise SignalError(f"ensemble: no fitted drops for the neighbours at {lo.velocity:g} and {hi.velocity:g} "
+            raise SignalError(f"{self.name}: no fitted drops for the neighbours at {lo.velocity:g} and {hi.velocity:g} "
                               "m/s; prepare() the interpolator with their bank first")
         return found.of(lo, hi)
 
@@ -181,4 +184,5 @@ class EnsembleInterpolator(TableServed):
                                               "trim": self.table.meta["source"]["trim"]}
 
 
-__all__ = ["EnsembleInterpolator", "centres", "choose_trim", "fit_table", "table_path", "write_tables", "TRIMS"]
+__all__ = ["EnsembleInterpolator", "centres", "choose_trim", "fit_table", "matching_drops", "table_path",
+           "write_tables", "TRIMS"]
