@@ -16,6 +16,7 @@ def register_models(register):
 def register_interpolators(register):
     register("linear", lazy("hapticfx.interpolators.linear:LinearInterpolator"))
     register("ensemble", lazy("hapticfx.interpolators.ensemble:EnsembleInterpolator"))
+    register("ensemble-warp", lazy("hapticfx.interpolators.ensemble_warp:EnsembleWarpInterpolator"))
 
 
 @hookimpl

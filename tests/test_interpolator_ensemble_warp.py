@@ -1,0 +1,162 @@
+"""ensemble-warp: time registration of the drop centres, its choice from training data, its table, its edges."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hapticfx.data.bank import ProfileBank
+from hapticfx.errors import SignalError
+from hapticfx.interfaces import Profile, TrainingData
+from hapticfx.interpolators.ensemble import EnsembleInterpolator
+from hapticfx.interpolators.ensemble_warp import TOLERANCE, EnsembleWarpInterpolator, Fit, tabulate
+from hapticfx.interpolators.warp import Morph, displacement, warp_path
+
+N = 200
+
+
+def _pulse(at: float, width: float = 2.5, height: float = 1.0) -> np.ndarray:
+    return height * np.exp(-0.5 * ((np.arange(N) - at) / width) ** 2)
+
+
+def _brute_cost(a, b, penalty):
+    """Plain O(n^2) dynamic time warping (no band), the cost of the cheapest path."""
+    peak = max(np.abs(a).max(), np.abs(b).max())
+    x, y = a / peak, b / peak
+    n = len(x)
+    total = np.full((n + 1, n + 1), np.inf)
+    total[0, 0] = 0.0
+    for i in range(1, n + 1):
+        for j in range(1, n + 1):
+            total[i, j] = (x[i - 1] - y[j - 1]) ** 2 + min(total[i - 1, j - 1], total[i - 1, j] + penalty,
+                                                           total[i, j - 1] + penalty)
+    return total[n, n]
+
+
+def _path_cost(a, b, path, penalty):
+    peak = max(np.abs(a).max(), np.abs(b).max())
+    steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
+    return float(np.sum((a[path[:, 0]] / peak - b[path[:, 1]] / peak) ** 2) + penalty * np.sum(steps == 1))
+
+
+@pytest.mark.parametrize("penalty", [0.0, 0.01, 0.3])
+def test_the_warp_path_is_the_cheapest_monotone_alignment(penalty):
+    rng = np.random.default_rng(3)
+    a = np.convolve(rng.standard_normal(40), np.ones(3) / 3, "same")
+    b = np.roll(a, 3) + 0.1 * rng.standard_normal(40)
+    path = warp_path(a, b, penalty=penalty, band=40)
+    assert path[0].tolist() == [0, 0] and path[-1].tolist() == [39, 39]
+    assert np.all(np.diff(path, axis=0) >= 0) and np.all(np.abs(np.diff(path, axis=0)).sum(axis=1) >= 1)
+    assert _path_cost(a, b, path, penalty) == pytest.approx(_brute_cost(a, b, penalty), rel=1e-9, abs=1e-12)
+
+
+def test_the_morph_moves_a_bounce_halfway_where_a_blend_shows_it_twice():
+    a, b = _pulse(60) + _pulse(20, height=3.0), _pulse(72) + _pulse(20, height=3.0)
+    morph = Morph(a, b, displacement(warp_path(a, b, penalty=0.01), N))
+    half = morph(0.5)
+    assert abs(int(np.argmax(half[40:])) + 40 - 66) <= 1 and half[40:].max() > 0.9  # one bounce, halfway, whole
+    blend = 0.5 * a + 0.5 * b
+    assert blend[40:].max() < 0.55  # two half bounces
+    assert np.array_equal(morph(0.0), a)
+    assert np.allclose(morph(1.0), b, atol=2e-2)
+    still = Morph(a, b, np.zeros(N))
+    assert np.allclose(still(0.3), 0.7 * a + 0.3 * b)
+
+
+def _data(shift_per_mps: float, velocities=(2.0, 2.5, 3.0, 3.5, 4.0, 4.5), drops: int = 6, seed: int = 0):
+    """One object whose second impact (a bounce) comes ``shift_per_mps`` samples later per m/s."""
+    rng = np.random.default_rng(seed)
+    v = np.array(velocities, dtype=np.float64)
+    d = np.stack([[_pulse(20, height=2 * x) + _pulse(60 + shift_per_mps * (x - v[0]), height=0.5 * x)
+                   + 0.03 * rng.standard_normal(N) for _ in range(drops)] for x in v])
+    bank = ProfileBank("brick", "max-min", 1000.0, v, d[:, 0].copy())
+    return TrainingData({"brick": bank}, "max-min", "synthetic", {"brick": (v, d)})
+
+
+def test_the_warp_is_chosen_where_the_bounce_moves_and_left_out_where_it_does_not():
+    moving, still = Fit(_data(12.0)), Fit(_data(0.0))
+    assert np.isfinite(moving.penalty)
+    assert moving.penalty_scores[moving.penalty] < moving.penalty_scores[float("inf")]
+    assert not np.isfinite(still.penalty)
+    data = _data(0.0)  # no warp: the ensemble itself, number for number
+    warp, ens = EnsembleWarpInterpolator(), EnsembleInterpolator()
+    warp.fit(data), ens.fit(data)
+    ens.prepare(data.banks["brick"])
+    lo, hi = data.banks["brick"][1], data.banks["brick"][2]
+    for v in np.linspace(2.5, 3.0, 7):
+        assert np.allclose(warp.interpolate(lo, hi, float(v)), ens.interpolate(lo, hi, float(v)), rtol=0, atol=1e-12)
+
+
+def test_edges_recorded_velocities_exact_between_finite_and_bounded_bad_velocities_refused():
+    data = _data(12.0)
+    warp = EnsembleWarpInterpolator()
+    warp.fit(data)
+    bank = data.banks["brick"]
+    peak = np.abs(bank.profiles).max()
+    for i in range(len(bank) - 1):
+        lo, hi = bank[i], bank[i + 1]
+        assert np.array_equal(warp.interpolate(lo, hi, lo.velocity), lo.samples)
+        assert np.array_equal(warp.interpolate(lo, hi, hi.velocity), hi.samples)
+        for v in np.linspace(lo.velocity, hi.velocity, 9)[1:-1]:
+            out = warp.interpolate(lo, hi, float(v))
+            assert np.all(np.isfinite(out)) and np.abs(out).max() <= 1.5 * peak
+    lo, hi = bank[0], bank[1]
+    for bad in (float("nan"), float("inf"), 1.0, 2.6, -1.0):
+        with pytest.raises(SignalError):
+            warp.interpolate(lo, hi, bad)
+    with pytest.raises(SignalError, match="no fitted drops"):
+        warp.interpolate(Profile(lo.velocity, lo.samples + 1.0), hi, 2.2)
+
+
+def test_objects_with_one_or_two_velocities_fit_and_serve():
+    data = _data(12.0)
+    few = {"one": ([3.0], 1), "two": ([3.0, 4.0], 2)}
+    banks, drops = dict(data.banks), dict(data.drops)
+    for obj, (vs, _) in few.items():
+        v = np.array(vs)
+        d = np.stack([[_pulse(20) * x for _ in range(3)] for x in v])
+        banks[obj], drops[obj] = ProfileBank(obj, "max-min", 1000.0, v, d[:, 0].copy()), (v, d)
+    warp = EnsembleWarpInterpolator()
+    warp.fit(TrainingData(banks, "max-min", "synthetic", drops))
+    lo, hi = banks["two"][0], banks["two"][1]
+    out = warp.interpolate(lo, hi, 3.5)
+    assert np.all(np.isfinite(out)) and np.abs(out).max() <= 4.0 * 1.01
+
+
+def test_the_table_serves_what_the_method_computes():
+    data = _data(12.0)
+    fit = Fit(data)
+    table = tabulate(fit)
+    bank = data.banks["brick"]
+    table.attach(bank, rebuild="(test)")
+    warp = EnsembleWarpInterpolator()
+    warp.fitted = fit
+    for i in range(len(bank) - 1):
+        lo, hi = bank[i], bank[i + 1]
+        s = max(np.abs(lo.samples).max(), np.abs(hi.samples).max())
+        for v in np.linspace(lo.velocity, hi.velocity, 13):
+            served, direct = table.lookup(lo, hi, float(v)), warp.interpolate(lo, hi, float(v))
+            assert np.abs(served - direct).max() <= TOLERANCE * s
+    assert table.meta["source"]["penalty"] == fit.penalty
+
+
+def test_an_effect_serves_it_from_a_table_fitted_when_it_loads(tmp_path):
+    from hapticfx.data.build import build_dataset
+    from hapticfx.data.dataset import open_dataset
+    from hapticfx.data.toy import toy_recordings
+    from hapticfx.models.datadriven import DataDrivenModel
+    from hapticfx.objects import PAPER_OBJECTS
+    from hapticfx.params import BuildContext
+
+    recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], [2.42, 2.80, 3.13, 3.43], drops=4, seed=1)]
+    ds = open_dataset(build_dataset(tmp_path / "ds", recs, name="w", rate_hz=1000.0, sensor={"model": "synthetic"},
+                                    provenance={"source": "test"}))
+    params = DataDrivenModel.Params(dataset=str(ds.path), interpolator="ensemble-warp")
+    model = DataDrivenModel(params, BuildContext(object_id="wood-beam"))
+    assert model.describe()["served_from"]["interpolator"] == "ensemble-warp"
+    bank = model.bank("wood-beam")
+    for k, v in enumerate(bank.velocities):
+        assert np.array_equal(model.profile("wood-beam", float(v)), bank.profiles[k])
+    for v in np.linspace(2.42, 3.43, 23):
+        out = model.profile("wood-beam", float(v))
+        assert np.all(np.isfinite(out)) and np.abs(out).max() <= 2 * np.abs(bank.profiles).max()
