@@ -75,10 +75,16 @@ def test_bench_output_times_every_path_against_its_floor(soundserver):
     from pathlib import Path
 
     repo = Path(__file__).resolve().parents[3]
-    done = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "output", "effects/falling_brick_kinetic.yaml",
-                           "effects/falling_brick.yaml", "-n", "3", "--gap", "0.3", "--seconds", "0.1",
-                           "--voices", "1000", "--recoveries", "1", "--round-trips", "5"], cwd=repo,
-                          env={**os.environ, "XDG_RUNTIME_DIR": soundserver}, capture_output=True, text=True, timeout=300)
+    for attempt in range(2):
+        done = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "output",
+                               "effects/falling_brick_kinetic.yaml", "effects/falling_brick.yaml", "-n", "3", "--gap",
+                               "0.3", "--seconds", "0.1", "--voices", "1000", "--recoveries", "1", "--round-trips", "5"],
+                              cwd=repo, env={**os.environ, "XDG_RUNTIME_DIR": soundserver}, capture_output=True,
+                              text=True, timeout=300)
+        # The sound server itself starved for over the watchdog's 0.5 s (seen beside stress-ng --cpu 2): the
+        # bench rightly stops on the outage, which is the machine's, not the code's; it gets one more try.
+        if done.returncode == 0 or "(sound server stalled)" not in done.stderr:
+            break
     assert done.returncode == 0, done.stderr
     rows = {line.split(" | ")[0].strip("| "): line for line in done.stdout.splitlines() if line.startswith("| ")}
     for label in ("floor: a ready click into the same stream", "Engine.impact, falling_brick_kinetic",

@@ -247,8 +247,11 @@ def test_an_impact_is_heard_ahead_after_it_was_received_not_after_it_was_rendere
 
 @pytest.mark.soundserver
 def test_impacts_written_over_the_queue_are_mixed_and_limited(soundserver):
-    """A click written over a tone already queued adds to it, and the channel's limiter caps the sum."""
-    tone = 0.6 * np.sin(2 * np.pi * 100 * np.arange(int(0.5 * RATE)) / RATE)
+    """A click written over a tone already queued adds to it, and the channel's limiter caps the sum. The tone
+    lasts 1.5 s so that the click lands on it after any pause the machine makes short of a second; where the
+    server read past the click's place before its write came (``late``) or ran dry, the device may have
+    played the tone alone there, and the stream says so: the sum must be heard only when it says neither."""
+    tone = 0.6 * np.sin(2 * np.pi * 100 * np.arange(int(1.5 * RATE)) / RATE)
     with VibroTransducer(VibroTransducer.Params(queue=0.1), BuildContext(device="default")) as act:
         with LoopbackRecorder(RATE) as rec:
             time.sleep(0.2)
@@ -259,7 +262,10 @@ def test_impacts_written_over_the_queue_are_mixed_and_limited(soundserver):
             time.sleep(0.2)
         x = np.concatenate(rec.capture.blocks)[:, 0]
         assert act.limiter_report().peak_events >= 1
-    assert 0.95 < np.abs(x).max() <= 1.0 + 1e-6
+        told = act.losses(), act.underflows
+    assert np.abs(x).max() <= 1.0 + 1e-6
+    if told == ({}, 0):
+        assert 0.95 < np.abs(x).max(), told
     assert 0.55 < np.percentile(np.abs(x), 99.5)  # the tone itself sounded
 
 
