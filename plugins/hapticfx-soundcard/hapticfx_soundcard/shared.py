@@ -54,6 +54,7 @@ class SharedStream(ABC):
 
     queue_s = 0.0  # seconds queued at the server that impacts are written over (0: none)
     late = 0  # impacts written over a queue after the server had read their first frame
+    reopen_on_resume = False  # a stalled stream that plays again is reopened rather than taken as it is
 
     def __init__(self, name: str, mixer, rate_hz: float, *, watchdog_s: float):
         self.name = name  # for messages: "sound output 'default'"
@@ -155,10 +156,15 @@ class SharedStream(ABC):
 
     def _come_back(self, now: float, *, alive: bool, silent_s: float, period_s: float) -> None:
         """The watchdog's look during an outage: a stream still alive whose output plays again (it
-        was heard from within two periods) is taken back as it is; a stopped one is reopened, every
-        RETRY_S until the output answers."""
+        was heard from within two periods) is taken back (as it is, or reopened where
+        ``reopen_on_resume``); a stopped one is reopened, every RETRY_S until the output answers."""
         if alive:
             if silent_s < 2 * period_s:
+                if self.reopen_on_resume:
+                    try:
+                        self._open()
+                    except DeviceError:
+                        return
                 self._back("the stream resumed")
             return  # still stalled; if the server dies meanwhile, the stream says so
         if now - self._last_attempt < RETRY_S:
