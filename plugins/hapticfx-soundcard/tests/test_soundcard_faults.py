@@ -75,15 +75,17 @@ def test_a_failing_sound_server_gives_a_clear_error_quickly(mode, queue, output,
 @pytest.mark.parametrize("queue", [0.0, 0.1])
 @pytest.mark.parametrize("mode", ["stall-resume", "restart"])
 def test_impacts_are_heard_again_once_the_server_is_back(mode, queue, tmp_path):
-    """A PortAudio stream starts with a 0.1 s buffer that may grow to 1 s: a loaded machine's own stalls
-    do not lengthen it, the outage's gap would (how often a busy machine starves the shipped 'low'
-    buffer is `hapticfx bench output`'s question)."""
+    """A PortAudio stream starts with a 0.1 s buffer that may grow to 1 s: the outage's gap does not lengthen
+    it. A machine that itself stalls the stream for longer than that away from the outage (seen at load 6-7)
+    rightly does, so the buffer is checked where the probe saw no such stall (how often a busy machine starves
+    the shipped 'low' buffer is `hapticfx bench output`'s question)."""
     seen, stderr = run_child(mode, tmp_path, queue, latency=0.1 if queue == 0.0 else None)
     assert float(seen["detected_s"]) < 1.0
     assert seen["recovered_s"] != "never"
     assert seen["heard"] == "1"
     if mode == "stall-resume":  # at the stream's usual latency, not late by the 1 s that the stall threw off
         assert float(seen["heard_after_s"]) < 0.5, seen["heard_after_s"]
-    assert seen["buffer_changes"] == "0"  # the gap of an outage is not one that a longer buffer would hold
+    if seen["stalls_outside"] == "0":
+        assert seen["buffer_changes"] == "0"  # the gap of an outage is not one that a longer buffer would hold
     assert float(seen["close_s"]) < 1.5
     assert quiet(stderr)

@@ -8,7 +8,8 @@ again by .ci/soundserver.sh, whose path is in ``HAPTICFX_SOUNDSERVER``). Prints 
 from the server's return (continued, or answering ``pactl info`` again) to the
 first impact the actuator takes again; ``heard`` counts the clicks then recorded
 from the sink's monitor, ``heard_after_s`` (stall-resume) how long after ``play``
-the first began; ``buffer_changes`` how often the stream's buffer was lengthened.
+the first began; ``buffer_changes`` how often the stream's buffer was lengthened, ``stalls_outside``
+how many waits between audio callbacks outlasted the buffer away from the outage (the machine's own).
 QUEUE (seconds, default 0) is the actuator's ``queue`` option: the PulseAudio queue instead of PortAudio.
 LATENCY (seconds; default PortAudio's 'low' with the shipped max_latency) starts the PortAudio stream with
 that buffer and lets it grow up to 1 s: the tests' choice, a buffer that a loaded machine's own stalls do
@@ -121,6 +122,9 @@ if mode in ("stall-resume", "restart"):
     if mode == "stall-resume":  # on a server just started, the capture's clock is not yet to be trusted
         say("heard_after_s", f"{heard[0] - sent:.3f}" if len(heard) else "never")
     say("buffer_changes", len(act.buffer_changes))
+    # waits between audio callbacks longer than the buffer that lie wholly outside the outage: the machine's
+    # own stalls, which a longer buffer rightly answers
+    say("stalls_outside", sum(1 for end, gap in act.late_callbacks if end < t_fault or end - gap > t_back))
     if mode == "restart":
         server.wait(timeout=30)  # the script's keep-alive and settle time
 
