@@ -105,6 +105,18 @@ def _bounce_hz(path: Path, velocity: float) -> Callable[[object], float]:
     return lambda _: 1.0 / (2.0 * collision(*direct_model(path), velocity)[0])
 
 
+def _rises_with_hardness(paths: list[Path], what: int) -> Callable[[object], float]:
+    """The smallest ratio of a tap's ringing quantity (``ringing``'s index ``what``) at 0.2 m/s between each
+    surface and the next softer one (``paths`` from soft to hard): above 1 where it rises with hardness."""
+    def measure(_):
+        values = []
+        for path in paths:
+            model, info = direct_model(path)
+            values.append(ringing(model._profile(info, 0.2), model.params.rate_hz)[what])
+        return min(b / a for a, b in zip(values, values[1:]))
+    return measure
+
+
 def _cor_falls(path: Path, low: float, high: float) -> Callable[[object], float]:
     def measure(_):
         model, info = direct_model(path)
@@ -137,6 +149,8 @@ ANDERSEN = ("Andersen, Kristensen and Sorensen, 'Biomechanical differences betwe
             "velocity' (ball speeds 11.5-22.2 m/s)")
 MOTOIQ = ("MotoIQ, 'Garage Love: Speed-Dependent Wheel Vibrations', quoting an engineer on the wheel-hop resonance "
           "(tyre and suspension springs, unsprung mass): 'this frequency typically occurs in the 10-15 Hz range'")
+HARDER = ("eLife reviewed preprint 111461 (elifesciences.org/reviewed-preprints/111461), introduction, on tapping: "
+          "'Hard surfaces produce higher-amplitude, higher-frequency transients'")
 OKAMURA = ("Okamura, Cutkosky and Dennerlein, 'Reality-based models for vibration feedback in virtual "
            "environments', IEEE/ASME Trans. Mechatronics 6(3), 2001 (abstract): a tap on a real material, measured "
            "at the stylus, is a decaying sinusoid (amplitude, frequency, decay rate)")
@@ -165,6 +179,12 @@ def checks(folder: Path = FAMILIES) -> list[Check]:
                          "(the spread of A/v)"))
         out.append(Check(f"tapping_{name}", "ringing frequency f (Hz) at 0.2 m/s (rendered only)", OKAMURA,
                          float("nan"), float("nan"), _tap(path, 0), note="the published f was not read here"))
+    surfaces = [folder / f"tapping_{name}.yaml" for name in ("rubber", "wood", "aluminium")]
+    if all(path.is_file() for path in surfaces):
+        for what, label in ((0, "frequency f"), (2, "amplitude A")):
+            out.append(Check("tapping", f"ringing {label} at 0.2 m/s, rubber < wood < aluminium: smallest ratio",
+                             HARDER, 1.0 + 1e-9, 1e3, _rises_with_hardness(surfaces, what),
+                             note="reading: the order only (each surface's over the next softer one's)"))
     out.append(Check("wheel_bump", "wheel on its tyre: 1 / (2 x contact time) at 1.2 m/s (Hz)", MOTOIQ, 10.0, 15.0,
                      _bounce_hz(folder / "wheel_bump.yaml", 1.2),
                      note="reading: the first contact is half a bounce of the wheel on its tyre, taken as the "
