@@ -42,10 +42,11 @@ PENALTIES = (0.01, 0.03, float("inf"))
 TOLERANCE = 1e-3  # of the neighbours' larger peak: -60 dB
 
 
-def _centre(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float, w: float) -> np.ndarray:
-    if not np.isfinite(penalty):
-        return (1 - w) * lo_c + w * hi_c
-    return Morph(lo_c, hi_c, displacement(warp_path(lo_c, hi_c, penalty=penalty), len(lo_c)))(w)
+def _morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float) -> Morph:
+    """The morph from one drop centre to the next (``penalty`` inf: no warp, the plain blend)."""
+    d = displacement(warp_path(lo_c, hi_c, penalty=penalty), len(lo_c)) if np.isfinite(penalty) \
+        else np.zeros_like(lo_c)
+    return Morph(lo_c, hi_c, d)
 
 
 def choose_penalty(data: TrainingData, trim: float) -> tuple[float, dict[float, float]]:
@@ -62,7 +63,7 @@ def choose_penalty(data: TrainingData, trim: float) -> tuple[float, dict[float, 
             w = (vs[i] - vs[i - 1]) / (vs[i + 1] - vs[i - 1])
             blend = (1 - w) * reps[i - 1] + w * reps[i + 1]
             for p in PENALTIES:
-                pred = blend + 4 * w * (1 - w) * (_centre(c[i - 1], c[i + 1], p, w) - blend)
+                pred = blend + 4 * w * (1 - w) * (_morph(c[i - 1], c[i + 1], p)(w) - blend)
                 scores[p].append(float(np.sqrt(np.mean((pred - reps[i]) ** 2))))
     if not any(scores.values()):
         return float("inf"), {}
@@ -97,10 +98,7 @@ class Fit:
         """The morph from the centre at recorded velocity ``i`` of ``obj`` to the one at ``i + 1``."""
         key = (obj, i)
         if key not in self._morphs:
-            lo, hi = self.centres[obj][i], self.centres[obj][i + 1]
-            d = displacement(warp_path(lo, hi, penalty=self.penalty), len(lo)) if np.isfinite(self.penalty) \
-                else np.zeros_like(lo)
-            self._morphs[key] = Morph(lo, hi, d)
+            self._morphs[key] = _morph(self.centres[obj][i], self.centres[obj][i + 1], self.penalty)
         return self._morphs[key]
 
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
