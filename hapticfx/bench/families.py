@@ -105,18 +105,6 @@ def _bounce_hz(path: Path, velocity: float) -> Callable[[object], float]:
     return lambda _: 1.0 / (2.0 * collision(*direct_model(path), velocity)[0])
 
 
-def _rises_with_hardness(paths: list[Path], what: int) -> Callable[[object], float]:
-    """The smallest ratio of a tap's ringing quantity (``ringing``'s index ``what``) at 0.2 m/s between each
-    surface and the next softer one (``paths`` from soft to hard): above 1 where it rises with hardness."""
-    def measure(_):
-        values = []
-        for path in paths:
-            model, info = direct_model(path)
-            values.append(ringing(model._profile(info, 0.2), model.params.rate_hz)[what])
-        return min(b / a for a, b in zip(values, values[1:]))
-    return measure
-
-
 def _cor_falls(path: Path, low: float, high: float) -> Callable[[object], float]:
     def measure(_):
         model, info = direct_model(path)
@@ -124,18 +112,29 @@ def _cor_falls(path: Path, low: float, high: float) -> Callable[[object], float]
     return measure
 
 
+def _rings(path: Path, velocity: float) -> tuple[float, float, float]:
+    """:func:`ringing` of the family's profile at ``velocity``, integrated directly."""
+    model, info = direct_model(path)
+    return ringing(model._profile(info, velocity), model.params.rate_hz)
+
+
 def _tap(path: Path, what: int) -> Callable[[object], float]:
-    def measure(_):
-        model, info = direct_model(path)
-        return ringing(model._profile(info, 0.2), model.params.rate_hz)[what]
-    return measure
+    return lambda _: _rings(path, 0.2)[what]
 
 
 def _tap_linearity(path: Path) -> Callable[[object], float]:
     def measure(_):
-        model, info = direct_model(path)
-        a = [ringing(model._profile(info, v), model.params.rate_hz)[2] / v for v in (0.1, 0.2, 0.4)]
+        a = [_rings(path, v)[2] / v for v in (0.1, 0.2, 0.4)]
         return max(a) / min(a) - 1.0
+    return measure
+
+
+def _rises_with_hardness(paths: list[Path], what: int) -> Callable[[object], float]:
+    """The smallest ratio of a tap's ringing quantity (``ringing``'s index ``what``) at 0.2 m/s between each
+    surface and the next softer one (``paths`` from soft to hard): above 1 where it rises with hardness."""
+    def measure(_):
+        values = [_rings(path, 0.2)[what] for path in paths]
+        return min(b / a for a, b in zip(values, values[1:]))
     return measure
 
 
