@@ -34,7 +34,7 @@ TRAINING_DEFAULTS = {
     "patience": 30, "seed": 0, "threads": 1, "augment": True,
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
-            "gaps", "init", "model", "training", "out")
+            "gaps", "trim", "init", "model", "training", "out")
 MAX_GAP = 16
 
 
@@ -49,6 +49,7 @@ class TrainConfig:
     train_velocities: list[float] | None = None
     holdout_velocities: list[float] = field(default_factory=list)
     gaps: list[int] = field(default_factory=lambda: [1])
+    trim: float = 0.0
     init: str | None = None
     model: dict = field(default_factory=dict)
     training: dict = field(default_factory=dict)
@@ -74,6 +75,10 @@ class TrainConfig:
                 isinstance(g, int) and not isinstance(g, bool) and 1 <= g <= MAX_GAP for g in self.gaps)):
             raise EffectError(f"expected a non-empty list of integers in [1, {MAX_GAP}] (recorded velocities between "
                               "a target and each neighbour)", source=self.source, key="gaps")
+        if isinstance(self.trim, bool) or not (isinstance(self.trim, (int, float)) and 0 <= self.trim < 0.5):
+            raise EffectError("expected a number in [0, 0.5): the fraction of drops cut at each end, per sample, "
+                              "for a velocity's centre (0: the mean)", source=self.source, key="trim")
+        self.trim = float(self.trim)
         if self.init is not None and not isinstance(self.init, str):
             raise EffectError("expected a checkpoint path (string)", source=self.source, key="init")
         if self.objects is not None and not (isinstance(self.objects, list) and all(isinstance(o, str) for o in self.objects)):

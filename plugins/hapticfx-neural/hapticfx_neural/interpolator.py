@@ -36,8 +36,8 @@ def require_torch(why: str) -> None:
 class NeuralInterpolator(TableServed):
     """Predicts a profile from its two recorded neighbours and the velocity with a trained network.
 
-    The network takes the neighbours' drop centres (the mean of every drop recorded at each)
-    and predicts the centre at the velocity; the profile is the neighbours' blend drawn toward
+    The network takes the neighbours' drop centres (the mean, or trimmed mean, of every drop
+    recorded at each) and predicts the centre at the velocity; the profile is the neighbours' blend drawn toward
     it (:mod:`.samples`). Where a neighbour's drops are unknown its representative stands in.
 
     Options (effect ``interpolator_options``): ``weights`` (checkpoint directory or
@@ -79,15 +79,16 @@ class NeuralInterpolator(TableServed):
             {"interpolator": self.arch, "dataset": data.dataset, "reducer": data.reducer})
         cfg.training.update(options.get("training") or {})
         cfg.model.update(options.get("model") or {})
-        triples, targets = triples_of(data, gaps=cfg.gaps)
+        triples, targets = triples_of(data, gaps=cfg.gaps, trim=cfg.trim)
         init = options.get("init", cfg.init)
         self.net, self.meta = train_network(
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
             label=options.get("label"), init=None if init is None else checkpoint.resolve(init),
             dataset_meta={"name": data.dataset, "reducer": data.reducer, "objects": list(data.banks),
-                          "targets": targets, "gaps": list(cfg.gaps)})
+                          "targets": targets, "gaps": list(cfg.gaps), "trim": cfg.trim})
         self.net = self.net.double()  # served in float64, like its table
         self.table = None
+        self.centres = Centres(cfg.trim)
         for obj, bank in data.banks.items():
             self.centres.add(bank, data.drops.get(obj))
         return {k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")}
@@ -158,6 +159,7 @@ class NeuralInterpolator(TableServed):
         torch.set_num_threads(self.threads)
         net, self.meta = load_network(checkpoint.resolve(path), arch=self.arch, dataset=dataset, reducer=reducer)
         self.net = net.double()
+        self.centres = Centres.of(self.meta)
 
     # -- inference --------------------------------------------------------------------
     def predict(self, triples) -> np.ndarray:

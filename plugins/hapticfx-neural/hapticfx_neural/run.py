@@ -12,7 +12,7 @@ from .config import TrainConfig
 from .samples import DropTriples, concat, drop_triples, object_pools
 
 
-def triples_of(data, *, gaps: list[int], targets: dict[str, list[float]] | None = None,
+def triples_of(data, *, gaps: list[int], trim: float = 0.0, targets: dict[str, list[float]] | None = None,
                prefix: str = "") -> tuple[DropTriples, dict]:
     """Triples of every object of ``data`` (:class:`~hapticfx.interfaces.TrainingData`) from all its drops.
 
@@ -33,7 +33,7 @@ def triples_of(data, *, gaps: list[int], targets: dict[str, list[float]] | None 
     if not rows:
         raise DatasetError(f"no training targets in dataset {data.dataset!r}: a target needs a recorded velocity "
                            "on each side")
-    return drop_triples(rows, gaps=gaps), chosen
+    return drop_triples(rows, gaps=gaps, trim=trim), chosen
 
 
 def dataset_ref(dataset) -> str:
@@ -57,14 +57,14 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
         data = training_data(ds, cfg.reducer, objects, holdout=holdout)
         wanted = None if cfg.train_velocities is None else {o: cfg.train_velocities for o in objects}
         prefix = f"{ds.name}/" if len(datasets) > 1 else ""
-        part, chosen = triples_of(data, gaps=cfg.gaps, targets=wanted, prefix=prefix)
+        part, chosen = triples_of(data, gaps=cfg.gaps, trim=cfg.trim, targets=wanted, prefix=prefix)
         parts.append(part)
         targets.update({prefix + o: v for o, v in chosen.items()})
     first = datasets[0]
     meta = {"name": first.name if len(datasets) == 1 else f"{first.name}+{len(datasets) - 1}",
             "ref": dataset_ref(first) if len(datasets) == 1 else None, "reducer": cfg.reducer,
             "objects": list(targets), "targets": targets, "holdout": list(cfg.holdout_velocities),
-            "gaps": list(cfg.gaps)}
+            "gaps": list(cfg.gaps), "trim": cfg.trim}
     if len(datasets) > 1:
         meta["datasets"] = [dataset_ref(d) for d in datasets]
     return datasets, concat(parts), meta

@@ -6,12 +6,16 @@ representative where a dataset keeps no raw recordings.
 
 What the network sees and predicts:
 
-- **Inputs**: the *centres* of the two neighbours (the mean of their drops). In training,
-  each epoch draws each neighbour's centre from a random subset of its drops (at least half
-  of them), so the network sees the centres' own sampling noise and never the same input
-  twice; at inference the centre is the mean of every drop.
-- **Target**: the mean of the target velocity's drops. Its RMSE differs from the mean RMSE
-  over every drop by a constant, so this *is* a loss over every drop, computed once.
+- **Centre** of a velocity: the per-sample trimmed mean of its drops, ``trim`` of them cut at
+  each end (the core's :func:`hapticfx.interpolators.ensemble.centres`; ``trim: 0``, the
+  default, is the mean).
+- **Inputs**: the centres of the two neighbours. In training, each epoch draws each
+  neighbour's centre from a random subset of its drops (at least half of them), so the
+  network sees the centres' own sampling noise and never the same input twice; at inference
+  the centre is that of every drop.
+- **Target**: the centre of the target velocity's drops. With ``trim: 0`` its RMSE differs
+  from the mean RMSE over every drop by a constant, so it *is* a loss over every drop,
+  computed once.
 - **Normalisation**, per impact: inputs and target divided by ``s = max(|lower|, |upper|)``
   of the two input centres.
 - **Output**: a correction ``r`` to the blend of the centres, ``centre(w) = (1 - w) Lc + w Uc + s r``.
@@ -34,6 +38,7 @@ import numpy as np
 
 from hapticfx.errors import DatasetError
 from hapticfx.interfaces import Profile
+from hapticfx.interpolators.ensemble import centres as trimmed_centres
 from hapticfx.interpolators.residual import scale as neighbour_scale, weight
 
 
@@ -79,7 +84,8 @@ def stack_triples(rows: list[tuple[Profile, Profile, float, np.ndarray | None]],
 
 @dataclass
 class DropTriples:
-    """Triples over pools of drops: ``pools[k]`` is ``(D_k, N)``; ``lo, hi, tgt`` index pools per triple."""
+    """Triples over pools of drops: ``pools[k]`` is ``(D_k, N)``; ``lo, hi, tgt`` index pools per triple;
+    ``trim``: the fraction of drops cut at each end for a pool's centre (0: the mean)."""
 
     pools: list[np.ndarray]
     lo: np.ndarray
@@ -89,6 +95,7 @@ class DropTriples:
     v_hi: np.ndarray
     v: np.ndarray
     objects: list[str]
+    trim: float = 0.0
 
     def __len__(self) -> int:
         return int(self.v.shape[0])
@@ -100,27 +107,32 @@ class DropTriples:
     def subset(self, idx) -> "DropTriples":
         idx = np.asarray(idx, dtype=int)
         return DropTriples(self.pools, self.lo[idx], self.hi[idx], self.tgt[idx], self.v_lo[idx], self.v_hi[idx],
-                           self.v[idx], [self.objects[i] for i in idx])
+                           self.v[idx], [self.objects[i] for i in idx], self.trim)
 
     def centres(self, rng: np.random.Generator | None = None) -> Triples:
         """Triples whose inputs are the pools' centres; with ``rng``, each drawn from a random half or more."""
-        means = [p.mean(axis=0) for p in self.pools]
+        full = [pool_centre(p, self.trim) for p in self.pools]
 
         def centre(k: int) -> np.ndarray:
             pool = self.pools[k]
             if rng is None or len(pool) < 2:
-                return means[k]
+                return full[k]
             size = int(rng.integers((len(pool) + 1) // 2, len(pool) + 1))
-            return pool[rng.choice(len(pool), size, replace=False)].mean(axis=0)
+            return pool_centre(pool[rng.choice(len(pool), size, replace=False)], self.trim)
 
         lc = np.stack([centre(k) for k in self.lo])
         uc = np.stack([centre(k) for k in self.hi])
-        return Triples(lc, uc, lc, uc, self.v_lo, self.v_hi, self.v, np.stack([means[k] for k in self.tgt]),
+        return Triples(lc, uc, lc, uc, self.v_lo, self.v_hi, self.v, np.stack([full[k] for k in self.tgt]),
                        self.objects)
 
 
+def pool_centre(pool: np.ndarray, trim: float) -> np.ndarray:
+    """The centre ``(N,)`` of a pool of drops ``(D, N)``: the per-sample trimmed mean (``trim`` 0: the mean)."""
+    return pool.mean(axis=0) if trim == 0 else trimmed_centres(pool[None], trim)[0]
+
+
 def drop_triples(pools_of: list[tuple[str, np.ndarray, list[np.ndarray], list[float]]], *,
-                 gaps: list[int]) -> DropTriples:
+                 gaps: list[int], trim: float = 0.0) -> DropTriples:
     """Triples of every object: ``(object, velocities (V,), pools, target velocities)``.
 
     Target velocity ``i`` takes neighbours ``i - a`` and ``i + b`` for every ``a, b`` in ``gaps``
@@ -151,10 +163,12 @@ def drop_triples(pools_of: list[tuple[str, np.ndarray, list[np.ndarray], list[fl
         raise DatasetError(f"profiles of different lengths ({sorted(lengths)}) cannot train one network")
     as_int = lambda x: np.array(x, dtype=int)  # noqa: E731
     return DropTriples(pools, as_int(lo), as_int(hi), as_int(tgt), np.array(vl, float), np.array(vh, float),
-                       np.array(vv, float), objs)
+                       np.array(vv, float), objs, trim)
 
 
 def concat(parts: list[DropTriples]) -> DropTriples:
+    if len({p.trim for p in parts}) > 1:
+        raise DatasetError("triples with different centre trims cannot train one network")
     pools, offset, idx = [], 0, {"lo": [], "hi": [], "tgt": []}
     for p in parts:
         for k in idx:
@@ -163,7 +177,7 @@ def concat(parts: list[DropTriples]) -> DropTriples:
         offset += len(p.pools)
     return DropTriples(pools, *(np.concatenate(idx[k]) for k in ("lo", "hi", "tgt")),
                        *(np.concatenate([getattr(p, k) for p in parts]) for k in ("v_lo", "v_hi", "v")),
-                       sum((p.objects for p in parts), []))
+                       sum((p.objects for p in parts), []), parts[0].trim)
 
 
 def encode(t: Triples, *, steps: int, v_mean: float, v_std: float):
@@ -215,10 +229,17 @@ def object_pools(bank, drops) -> list[np.ndarray]:
 
 
 class Centres:
-    """A neighbour's drop centre found from its representative (velocity and samples), for inference."""
+    """A neighbour's drop centre (trimmed by ``trim``) found from its representative (velocity and samples),
+    for inference."""
 
-    def __init__(self):
+    def __init__(self, trim: float = 0.0):
+        self.trim = float(trim)
         self._by_key: dict[tuple, np.ndarray] = {}
+
+    @classmethod
+    def of(cls, meta: dict) -> "Centres":
+        """The centres a checkpoint was trained on (``meta["dataset"]["trim"]``; 0 where it was not recorded)."""
+        return cls(meta["dataset"].get("trim", 0.0))
 
     @staticmethod
     def _key(velocity: float, samples: np.ndarray) -> tuple:
@@ -226,7 +247,7 @@ class Centres:
 
     def add(self, bank, drops) -> None:
         for v, profile, pool in zip(bank.velocities, bank.profiles, object_pools(bank, drops)):
-            self._by_key[self._key(v, profile)] = pool.mean(axis=0)
+            self._by_key[self._key(v, profile)] = pool_centre(pool, self.trim)
 
     def __call__(self, profile: Profile) -> np.ndarray:
         """The centre recorded for ``profile``; the profile itself when its drops are unknown."""

@@ -47,7 +47,7 @@ def write_table(weights: Path, dataset: Dataset, *, progress: Callable[[str], No
     net, meta = load_network(weights, arch=meta["interpolator"], dataset=dataset.name)
     reducer = meta["dataset"]["reducer"]
     banks = [dataset.bank(obj, reducer) for obj in dataset.objects]
-    centres = Centres()
+    centres = Centres.of(meta)
     for bank in banks:
         centres.add(bank, recorded_drops(dataset, bank.object, reducer))
     return network_table(net, meta, banks, dataset.name, centres, progress=progress).save(checkpoint.table_path(weights))

@@ -33,6 +33,44 @@ def test_triples_take_every_gap_and_the_target_is_the_drop_mean():
     assert all(any(np.allclose(d, s) for s in subsets) for d in drawn)  # half of the drops or more
 
 
+def test_trimmed_centres_are_the_cores_trimmed_means_for_inputs_draws_and_target():
+    from hapticfx.interpolators.ensemble import centres
+
+    rng = np.random.default_rng(2)
+    v = np.array([1.0, 1.1, 1.2])
+    pools = [rng.standard_normal((10, 20)) for _ in v]
+    pools[2][0] += 50.0  # one wild drop: the median-like centre ignores it, the mean does not
+    t = drop_triples([("a", v, pools, [1.1])], gaps=[1], trim=0.4)
+    full = t.centres()
+    assert np.allclose(full.target, centres(pools[1][None], 0.4)[0])
+    assert np.allclose(full.upper_c[0], np.median(pools[2], axis=0)) and np.abs(full.upper_c[0]).max() < 10
+    drawn = t.subset([0]).centres(np.random.default_rng(3))
+    assert np.allclose(drawn.target, full.target) and not np.allclose(drawn.lower_c, full.lower_c)
+
+
+def test_an_untrained_trimmed_network_is_the_ensemble_with_that_trim(drop_dataset):
+    """``trim`` in a training configuration: the untrained network serves exactly what `ensemble` does."""
+    from hapticfx.interpolators.ensemble import EnsembleInterpolator
+    from hapticfx_neural.config import MODEL_DEFAULTS
+    from hapticfx_neural.samples import Centres, stack_triples
+    from hapticfx_neural.training import make_network, predict
+
+    ds = open_dataset(drop_dataset)
+    bank = ds.bank("wood-beam", "max-min")
+    centres = Centres(0.3)
+    centres.add(bank, recorded_drops(ds, "wood-beam", "max-min"))
+    net = make_network("convbilstm", {**MODEL_DEFAULTS["convbilstm"], **TINY}, bank.n_samples)
+    meta = {"steps": TINY["steps"], "normalisation": {"velocity_mean": 3.0, "velocity_std": 1.0}}
+    ens = EnsembleInterpolator(trim=0.3)
+    ens.fit(training_data(ds, "max-min", ["wood-beam"]))
+    ens.prepare(bank)
+    lo, hi = bank[1], bank[2]
+    for w in (0.0, 0.2, 0.5, 0.9, 1.0):
+        v = lo.velocity + w * (hi.velocity - lo.velocity)
+        out = predict(net, meta, stack_triples([(lo, hi, v, None)], ["wood-beam"], centres))[0]
+        assert np.allclose(out, ens.interpolate(lo, hi, v), rtol=0, atol=1e-9)
+
+
 def test_an_untrained_network_serves_the_blend_drawn_toward_the_centres(drop_dataset):
     """Zero correction: halfway, the mean of the neighbours' centres; at a neighbour, its representative."""
     from hapticfx_neural.config import MODEL_DEFAULTS
@@ -53,8 +91,12 @@ def test_an_untrained_network_serves_the_blend_drawn_toward_the_centres(drop_dat
         assert np.allclose(out, want, rtol=0, atol=1e-12)
 
 
-def test_training_from_drops_serves_a_table_equal_to_direct_inference(tmp_path, drop_dataset):
-    meta, path = train_from_config(load_config(tiny_config(tmp_path, drop_dataset, epochs=2)), progress=False)
+@pytest.mark.parametrize("trim", [0.0, 0.4])
+def test_training_from_drops_serves_a_table_equal_to_direct_inference(tmp_path, drop_dataset, trim):
+    cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=2))
+    cfg.trim = trim
+    meta, path = train_from_config(cfg, progress=False)
+    assert meta["dataset"]["trim"] == trim
     t = meta["training"]
     assert t["epochs_run"] == 2 and len(t["history"]) == 2 and t["start_val_rmse_normalised"] is None  # 4 targets
     assert meta["dataset"]["targets"] == {"wood-beam": [2.8, 3.1, 3.4, 3.7]}
@@ -98,7 +140,8 @@ def test_the_bench_runner_trains_on_drops_with_the_fold_held_out(drop_dataset):
 
 
 @pytest.mark.parametrize("bad, key", [({"gaps": [0]}, "gaps"), ({"gaps": "1"}, "gaps"), ({"dataset": []}, "dataset"),
-                                      ({"init": 3}, "init"), ({"training": {"augment": "yes"}}, "training.augment")])
+                                      ({"init": 3}, "init"), ({"training": {"augment": "yes"}}, "training.augment"),
+                                      ({"trim": 0.5}, "trim"), ({"trim": True}, "trim")])
 def test_bad_drop_training_keys_name_the_key(tmp_path, bad, key):
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "x", **bad}))
