@@ -95,6 +95,15 @@ def test_shipped_weights_play_the_brick_with_convbilstm(tmp_path):
     assert d.profile.n_samples == 500 and np.all(np.isfinite(d.profile.samples)) and d.profile.peak > 0
 
 
+def test_bench_learnable_takes_other_gaps_and_refuses_bad_ones(tmp_path, drop_dataset):
+    cfg = tiny_config(tmp_path, drop_dataset)
+    r = _cli("bench", "learnable", str(cfg), "--gaps", "1,2")
+    assert r.returncode == 0, r.stderr
+    assert "gaps [1, 2]" in r.stdout and "share of the mean square that is sampling noise" in r.stdout
+    bad = _cli("bench", "learnable", str(cfg), "--gaps", "0")
+    assert bad.returncode == 2 and "--gaps" in bad.stderr and "Traceback" not in bad.stderr
+
+
 def test_bench_threads_compares_thread_counts_under_load(tmp_path, syn_dataset):
     cfg = tiny_config(tmp_path, syn_dataset, epochs=1)
     r = _cli("bench", "threads", "--config", str(cfg), "--epochs", "1", "--busy", "1")

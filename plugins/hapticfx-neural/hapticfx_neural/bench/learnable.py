@@ -16,6 +16,7 @@ Two measures:
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 import typer
@@ -66,13 +67,26 @@ def ridge_scores(data, *, val_fraction: float, seed: int, steps: int) -> tuple[f
 
 
 def learnable(
-    config: Path = typer.Argument(..., help="Training configuration YAML (its datasets, gaps and split)."),
+    config: Path = typer.Argument(..., help="Training configuration YAML (its datasets, gaps, trim and split)."),
+    gaps: Optional[str] = typer.Option(None, "--gaps", metavar="N,...",
+                                       help="Neighbours this many recorded velocities either side, instead of the "
+                                            "configuration's `gaps` (e.g. 1 for adjacent neighbours only)."),
 ):
     """What is left to learn after the blend of the neighbours' drop centres: noise budget and a linear learner."""
-    from ..config import load_config
+    from hapticfx.errors import EffectError
+
+    from ..config import MAX_GAP, config_from_mapping, load_config
     from ..run import config_triples
 
     cfg = load_config(config)
+    if gaps is not None:
+        try:
+            wanted = [int(g) for g in gaps.split(",")]
+        except ValueError:
+            wanted = []
+        if not wanted or not all(1 <= g <= MAX_GAP for g in wanted):
+            raise EffectError(f"expected comma-separated integers in [1, {MAX_GAP}], got {gaps!r}", key="--gaps")
+        cfg = config_from_mapping({**cfg.as_dict(), "gaps": wanted}, source=cfg.source)
     _, data, meta = config_triples(cfg)
     obs, noise = noise_budget(data)
     base, scores = ridge_scores(data, val_fraction=cfg.training["val_fraction"], seed=cfg.training["seed"],
