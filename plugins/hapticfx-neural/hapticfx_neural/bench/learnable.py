@@ -92,10 +92,10 @@ def learnable(
     base, scores = ridge_scores(data, val_fraction=cfg.training["val_fraction"], seed=cfg.training["seed"],
                                 steps=cfg.model["steps"])
     typer.echo(f"{meta['name']}: {len(data)} triples, gaps {cfg.gaps}")
-    rows = [["blend of centres vs target drop mean: mean square (g^2)", f"{obs:.5f}"],
+    rows = [["blend of drop means vs target drop mean: mean square (g^2)", f"{obs:.5f}"],
             ["the same from the sampling noise of the three means alone", f"{noise:.5f}"],
             ["share of the mean square that is sampling noise", f"{min(noise / obs, 1.0):.1%}"],
-            ["validation RMSE (normalised), blend of centres", f"{base:.5f}"]]
+            ["validation RMSE (normalised), blend of the centres (trimmed as configured)", f"{base:.5f}"]]
     rows += [[f"validation RMSE, ridge (penalty {lam:g}) on the network's inputs", f"{s:.5f} ({s / base:.3f}x)"]
              for lam, s in scores.items()]
     typer.echo(table(["what", "value"], rows))
