@@ -72,6 +72,10 @@ def test_bench_interpolators_trains_networks_per_round_and_serves_them_from_tabl
         assert summary[row]["table_vs_direct_max"] <= 1e-6
         assert summary[row]["table_latency_ms"]["median"] < summary[row]["latency_ms"]["median"]
         assert summary[row]["extra"]["epochs_run"] == 2
+        epochs = summary[row]["best_epochs"]
+        assert len(epochs) == 1 and 0 <= epochs[0] <= 2
+        assert f"| {row} | {summary[row]['fit_s']:.2f} | {epochs[0]} | " in r.stdout  # the run-time table says it
+    assert "best_epochs" not in summary["linear"]
     assert "### RMSE vs representative (g)" in r.stdout
 
 
