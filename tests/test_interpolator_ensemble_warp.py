@@ -75,9 +75,10 @@ def _data(shift_per_mps: float, velocities=(2.0, 2.5, 3.0, 3.5, 4.0, 4.5), drops
 
 def test_the_warp_is_chosen_where_the_bounce_moves_and_left_out_where_it_does_not():
     moving, still = Fit(_data(12.0)), Fit(_data(0.0))
-    assert np.isfinite(moving.penalty)
-    assert moving.penalty_scores[moving.penalty] < moving.penalty_scores[float("inf")]
-    assert not np.isfinite(still.penalty)
+    chosen = moving.penalties["brick"]
+    assert np.isfinite(chosen)
+    assert moving.penalty_scores["brick"][chosen] < moving.penalty_scores["brick"][float("inf")]
+    assert not np.isfinite(still.penalties["brick"])
     data = _data(0.0)  # no warp: the ensemble itself, number for number
     warp, ens = EnsembleWarpInterpolator(), EnsembleInterpolator()
     warp.fit(data), ens.fit(data)
@@ -85,6 +86,39 @@ def test_the_warp_is_chosen_where_the_bounce_moves_and_left_out_where_it_does_no
     lo, hi = data.banks["brick"][1], data.banks["brick"][2]
     for v in np.linspace(2.5, 3.0, 7):
         assert np.allclose(warp.interpolate(lo, hi, float(v)), ens.interpolate(lo, hi, float(v)), rtol=0, atol=1e-12)
+
+
+def _two_objects(second_velocities=(2.0, 2.5, 3.0, 3.5, 4.0, 4.5)) -> TrainingData:
+    """A bouncing object and a still one (its own velocities) in one dataset."""
+    moving, still = _data(12.0), _data(0.0, velocities=second_velocities, seed=1)
+    still_bank = still.banks["brick"]
+    banks = {"moving": moving.banks["brick"],
+             "still": ProfileBank("still", "max-min", 1000.0, still_bank.velocities, still_bank.profiles)}
+    return TrainingData(banks, "max-min", "synthetic", {"moving": moving.drops["brick"], "still": still.drops["brick"]})
+
+
+def test_each_object_chooses_its_own_warp():
+    fit = Fit(_two_objects())
+    assert np.isfinite(fit.penalties["moving"]) and not np.isfinite(fit.penalties["still"])
+    assert fit.summary()["warped_objects"] == 1
+
+
+def test_an_object_with_too_few_velocities_to_choose_takes_the_pooled_penalty():
+    # the still object has 2 interior velocities (< MIN_FOLDS): it takes the penalty that is best over both objects
+    fit = Fit(_two_objects(second_velocities=(2.0, 2.5, 3.0, 3.5)))
+    assert fit.penalty_scores["still"]  # scored, but too few folds to choose alone
+    assert fit.penalties["still"] == fit.pooled_penalty
+    pooled = {p: np.mean([fit.penalty_scores[o][p] for o in ("moving", "still")]) for p in fit.penalty_scores["still"]}
+    assert len(set(pooled.values())) > 1
+
+
+def test_a_new_object_with_no_training_targets_takes_the_pooled_penalty():
+    data = _two_objects()
+    targets = {"moving": list(data.banks["moving"].velocities[1:-1]), "still": []}  # as leave-one-object-out gives
+    data = TrainingData(data.banks, data.reducer, data.dataset, data.drops, targets)
+    fit = Fit(data)
+    assert "still" not in fit.penalty_scores
+    assert fit.penalties["still"] == fit.pooled_penalty == fit.penalties["moving"]
 
 
 def test_edges_recorded_velocities_exact_between_finite_and_bounded_bad_velocities_refused():
@@ -137,7 +171,7 @@ def test_the_table_serves_what_the_method_computes():
         for v in np.linspace(lo.velocity, hi.velocity, 13):
             served, direct = table.lookup(lo, hi, float(v)), warp.interpolate(lo, hi, float(v))
             assert np.abs(served - direct).max() <= TOLERANCE * s
-    assert table.meta["source"]["penalty"] == fit.penalty
+    assert table.meta["source"]["penalty"] == {"brick": fit.penalties["brick"]}
 
 
 def test_an_effect_serves_it_from_a_table_fitted_when_it_loads(tmp_path):

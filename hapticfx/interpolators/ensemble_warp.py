@@ -11,11 +11,18 @@ aligned by dynamic time warping and morphed (:mod:`hapticfx.interpolators.warp`)
     profile   = blend(w) + 4 w (1 - w) (centre(w) - blend(w))
 
 The recorded representative comes back at its own velocity. Two choices are
-learned from the training data alone, leave one velocity out against the
-training targets' representatives: ``trim`` exactly as ``ensemble`` chooses it,
+learned from the training data alone, leaving one training velocity out at a
+time: ``trim`` exactly as ``ensemble`` chooses it (against the representative),
 then the warp ``penalty`` from :data:`PENALTIES` (``inf``: no warp, the
-``ensemble`` itself). A dataset whose events do not move keeps ``inf``; one whose
-drops bounce takes the warp.
+``ensemble`` itself) **for each object**, against the mean of the left-out
+velocity's drops. An object's events move with velocity by its own law (a heavy
+object bounces late, a light one not at all; a helmet's ringing stays where it
+is, and a warp that pairs its cycles one period apart is worse than none), so
+one penalty for a whole dataset is wrong for some of its objects; and the mean
+of a velocity's drops is a far less noisy yardstick than its one representative
+drop. An object with fewer than :data:`MIN_FOLDS` velocities to leave out (and
+an object the training data gives no targets of: a new object) takes the
+penalty that scores best over every object's folds.
 
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
@@ -49,14 +56,24 @@ def _morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float) -> Morph:
     return Morph(lo_c, hi_c, d)
 
 
-def choose_penalty(data: TrainingData, trim: float) -> tuple[float, dict[float, float]]:
-    """The warp penalty with the lowest mean leave-one-velocity-out RMSE against the training targets'
-    representatives (centres trimmed by ``trim``), and every penalty's score."""
-    scores = {p: [] for p in PENALTIES}
+MIN_FOLDS = 3  # left-out velocities an object needs to choose its own penalty
+
+
+def choose_penalties(data: TrainingData, trim: float) -> tuple[dict[str, float], float, dict[str, dict[float, float]]]:
+    """The warp penalty of every object, the pooled penalty, and every object's scores.
+
+    Each training target of an object is left out in turn and predicted from its neighbours' centres (trimmed
+    by ``trim``); the score is the mean RMSE against the mean of the left-out velocity's drops. An object takes
+    its own best penalty when it has at least :data:`MIN_FOLDS` such folds, otherwise the pooled one: the best
+    mean over every object's folds (``inf``, no warp, when no object has a fold).
+    """
+    scores: dict[str, dict[float, list[float]]] = {}
     for obj, bank in data.banks.items():
-        c = centres(matching_drops(bank, data.drops[obj]), trim)
+        drops = matching_drops(bank, data.drops[obj])
+        c, truth = centres(drops, trim), drops.mean(axis=1)
         reps, vs = bank.profiles, bank.velocities
         targets = None if data.targets is None else data.targets.get(obj, vs[1:-1])
+        own = scores[obj] = {p: [] for p in PENALTIES}
         for i in range(1, len(bank) - 1):
             if targets is not None and not np.isclose(targets, vs[i], rtol=0, atol=1e-9).any():
                 continue  # not a training target (for example an object left out)
@@ -64,18 +81,20 @@ def choose_penalty(data: TrainingData, trim: float) -> tuple[float, dict[float, 
             blend = (1 - w) * reps[i - 1] + w * reps[i + 1]
             for p in PENALTIES:
                 pred = blend + 4 * w * (1 - w) * (_morph(c[i - 1], c[i + 1], p)(w) - blend)
-                scores[p].append(float(np.sqrt(np.mean((pred - reps[i]) ** 2))))
-    if not any(scores.values()):
-        return float("inf"), {}
-    mean = {p: float(np.mean(v)) for p, v in scores.items()}
-    return min(PENALTIES, key=lambda p: mean[p]), mean
+                own[p].append(float(np.sqrt(np.mean((pred - truth[i]) ** 2))))
+    pooled_scores = {p: [x for own in scores.values() for x in own[p]] for p in PENALTIES}
+    pooled = min(PENALTIES, key=lambda p: np.mean(pooled_scores[p])) if pooled_scores[PENALTIES[0]] else float("inf")
+    chosen = {obj: min(PENALTIES, key=lambda p: np.mean(own[p])) if len(own[PENALTIES[0]]) >= MIN_FOLDS else pooled
+              for obj, own in scores.items()}
+    means = {obj: {p: float(np.mean(v)) for p, v in own.items()} for obj, own in scores.items() if own[PENALTIES[0]]}
+    return chosen, pooled, means
 
 
 class Fit:
-    """What the method learned from ``data``: ``trim``, ``penalty`` and every object's drop centres; the morph
+    """What the method learned from ``data``: ``trim``, every object's ``penalties`` and drop centres; the morph
     of each recorded interval is made on first use."""
 
-    def __init__(self, data: TrainingData, *, trim: float | None = None, penalty: float | None = None):
+    def __init__(self, data: TrainingData, *, trim: float | None = None):
         missing = [obj for obj in data.banks if obj not in data.drops]
         if missing:
             raise DatasetError(f"the {NAME} interpolator needs every recorded drop; dataset {data.dataset!r} keeps "
@@ -86,9 +105,7 @@ class Fit:
         self.trim = trim
         if trim is None:
             self.trim, self.trim_scores = ensemble.choose_trim(data)
-        self.penalty = penalty
-        if penalty is None:
-            self.penalty, self.penalty_scores = choose_penalty(data, self.trim)
+        self.penalties, self.pooled_penalty, self.penalty_scores = choose_penalties(data, self.trim)
         self.centres = {obj: centres(matching_drops(bank, data.drops[obj]), self.trim)
                         for obj, bank in data.banks.items()}
         self._morphs: dict[tuple[str, int], Morph] = {}
@@ -98,7 +115,7 @@ class Fit:
         """The morph from the centre at recorded velocity ``i`` of ``obj`` to the one at ``i + 1``."""
         key = (obj, i)
         if key not in self._morphs:
-            self._morphs[key] = _morph(self.centres[obj][i], self.centres[obj][i + 1], self.penalty)
+            self._morphs[key] = _morph(self.centres[obj][i], self.centres[obj][i + 1], self.penalties[obj])
         return self._morphs[key]
 
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
@@ -117,10 +134,15 @@ class Fit:
         return None
 
     def summary(self) -> dict:
-        return {"trim": self.trim, "penalty": self.penalty if np.isfinite(self.penalty) else None,
+        def name(p):
+            return None if not np.isfinite(p) else p
+
+        return {"trim": self.trim, "penalty": {obj: name(p) for obj, p in self.penalties.items()},
+                "pooled_penalty": name(self.pooled_penalty),
+                "warped_objects": sum(bool(np.isfinite(p)) for p in self.penalties.values()),
                 "loo_rmse": self.trim_scores,
-                "penalty_loo_rmse": None if self.penalty_scores is None else
-                {("inf" if not np.isfinite(p) else str(p)): s for p, s in self.penalty_scores.items()}}
+                "penalty_loo_rmse": {obj: {("inf" if not np.isfinite(p) else str(p)): x for p, x in own.items()}
+                                     for obj, own in self.penalty_scores.items()}}
 
 
 def table_path(dataset_path: Path, reducer: str) -> Path:
@@ -186,5 +208,5 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
         return {} if self.table is None else {**super().describe(), "penalty": self.table.meta["source"]["penalty"]}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_penalty", "fit_table", "tabulate", "table_path", "PENALTIES",
-           "TOLERANCE"]
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_penalties", "fit_table", "tabulate", "table_path", "MIN_FOLDS",
+           "PENALTIES", "TOLERANCE"]
