@@ -8,8 +8,8 @@ import pytest
 from hapticfx.data.bank import ProfileBank
 from hapticfx.errors import SignalError
 from hapticfx.interfaces import Profile, TrainingData
-from hapticfx.interpolators.ensemble import EnsembleInterpolator
-from hapticfx.interpolators.ensemble_warp import TOLERANCE, EnsembleWarpInterpolator, Fit, tabulate
+from hapticfx.interpolators.ensemble_warp import (TOLERANCE, EnsembleWarpInterpolator, Fit, jackknife_noise,
+                                                 shrunk_centres, tabulate)
 from hapticfx.interpolators.warp import Morph, displacement, warp_path
 
 N = 200
@@ -63,12 +63,17 @@ def test_the_morph_moves_a_bounce_halfway_where_a_blend_shows_it_twice():
     assert np.allclose(still(0.3), 0.7 * a + 0.3 * b)
 
 
-def _data(shift_per_mps: float, velocities=(2.0, 2.5, 3.0, 3.5, 4.0, 4.5), drops: int = 6, seed: int = 0):
-    """One object whose second impact (a bounce) comes ``shift_per_mps`` samples later per m/s."""
+def _truth(shift_per_mps: float, v: np.ndarray) -> np.ndarray:
+    """The noise-free profiles: an impact and a bounce ``shift_per_mps`` samples later per m/s."""
+    return np.stack([_pulse(20, height=2 * x) + _pulse(60 + shift_per_mps * (x - v[0]), height=0.5 * x) for x in v])
+
+
+def _data(shift_per_mps: float, velocities=(2.0, 2.5, 3.0, 3.5, 4.0, 4.5), drops: int = 6, seed: int = 0,
+          noise: float = 0.03):
+    """One object (:func:`_truth`) recorded ``drops`` times per velocity with white noise of SD ``noise``."""
     rng = np.random.default_rng(seed)
     v = np.array(velocities, dtype=np.float64)
-    d = np.stack([[_pulse(20, height=2 * x) + _pulse(60 + shift_per_mps * (x - v[0]), height=0.5 * x)
-                   + 0.03 * rng.standard_normal(N) for _ in range(drops)] for x in v])
+    d = _truth(shift_per_mps, v)[:, None, :] + noise * rng.standard_normal((len(v), drops, N))
     bank = ProfileBank("brick", "max-min", 1000.0, v, d[:, 0].copy())
     return TrainingData({"brick": bank}, "max-min", "synthetic", {"brick": (v, d)})
 
@@ -79,13 +84,42 @@ def test_the_warp_is_chosen_where_the_bounce_moves_and_left_out_where_it_does_no
     assert np.isfinite(chosen)
     assert moving.penalty_scores["brick"][chosen] < moving.penalty_scores["brick"][float("inf")]
     assert not np.isfinite(still.penalties["brick"])
-    data = _data(0.0)  # no warp: the ensemble itself, number for number
-    warp, ens = EnsembleWarpInterpolator(), EnsembleInterpolator()
-    warp.fit(data), ens.fit(data)
-    ens.prepare(data.banks["brick"])
+    data = _data(0.0)  # no warp: the ensemble's blend of the (here shrunk) centres, number for number
+    warp = EnsembleWarpInterpolator()
+    warp.fit(data)
+    c = warp.fitted.centres["brick"]
     lo, hi = data.banks["brick"][1], data.banks["brick"][2]
     for v in np.linspace(2.5, 3.0, 7):
-        assert np.allclose(warp.interpolate(lo, hi, float(v)), ens.interpolate(lo, hi, float(v)), rtol=0, atol=1e-12)
+        w = (v - 2.5) / 0.5
+        blend = (1 - w) * lo.samples + w * hi.samples
+        expected = blend + 4 * w * (1 - w) * ((1 - w) * c[1] + w * c[2] - blend)
+        assert np.allclose(warp.interpolate(lo, hi, float(v)), expected, rtol=0, atol=1e-12)
+
+
+def test_shrinking_is_chosen_where_noise_dominates_and_brings_the_centres_nearer_the_truth():
+    # 3 noisy drops of a profile that changes linearly with velocity: a centre's own noise is most of what its
+    # neighbours miss, so drawing it toward them helps; compared with the noise-free profiles (float64)
+    data = _data(0.0, velocities=tuple(np.linspace(2.0, 5.0, 9)), drops=3, noise=0.1)
+    fit = Fit(data)
+    assert fit.shrink["brick"]
+    v, drops = data.drops["brick"]
+    raw, truth = drops.mean(axis=1), _truth(0.0, v)
+    err = lambda c: np.sqrt(np.mean((c[1:-1] - truth[1:-1]) ** 2))  # noqa: E731
+    assert err(fit.centres["brick"]) < 0.8 * err(raw)
+    assert np.allclose(fit.centres["brick"][[0, -1]], raw[[0, -1]], rtol=0, atol=1e-12)  # the ends keep their centres
+    # a clean object whose bounce moves: the neighbours' prediction misses by more than the noise, no shrinking
+    assert not Fit(_data(12.0, noise=0.003)).shrink["brick"]
+
+
+def test_shrinking_leaves_noise_free_centres_as_they_are():
+    v = np.linspace(2.0, 4.0, 6)
+    c = _truth(12.0, v)
+    assert np.array_equal(shrunk_centres(v, c, np.zeros(len(v)), 0.01), c)
+    drops = np.repeat(c[:, None, :], 4, axis=1)
+    assert np.array_equal(jackknife_noise(drops, 0.0), np.zeros(len(v)))
+    noisy = drops + np.random.default_rng(3).standard_normal(drops.shape)
+    expected = np.var(noisy, axis=1, ddof=1).mean(axis=-1) / 4  # the jackknife of a mean is var / D
+    assert np.allclose(jackknife_noise(noisy, 0.0), expected, rtol=1e-12)
 
 
 def _two_objects(second_velocities=(2.0, 2.5, 3.0, 3.5, 4.0, 4.5)) -> TrainingData:

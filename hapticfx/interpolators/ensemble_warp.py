@@ -24,6 +24,15 @@ drop. An object with fewer than :data:`MIN_FOLDS` velocities to leave out (and
 an object the training data gives no targets of: a new object) takes the
 penalty that scores best over every object's folds.
 
+Then, chosen the same way for each object: whether its centres are **shrunk**
+first (:func:`shrunk_centres`). With few drops a centre is noisy, and the
+profile changes smoothly enough with velocity that its neighbours predict much
+of it; each interior centre is drawn toward its neighbours' morph by the share
+of their disagreement that is its own sampling noise (the jackknife over its
+drops), an empirical-Bayes smoother across velocity that pools the drops of
+four recorded velocities into each interval instead of two. Where the profile
+changes faster than the noise (many drops, sparse velocities) it is left out.
+
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
 the method by at most :data:`TOLERANCE` of the neighbours' larger peak; with no
@@ -56,7 +65,72 @@ def _morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float) -> Morph:
     return Morph(lo_c, hi_c, d)
 
 
-MIN_FOLDS = 3  # left-out velocities an object needs to choose its own penalty
+MIN_FOLDS = 3  # left-out velocities an object needs to make its own choices
+SHRINK = (False, True)
+
+
+def jackknife_noise(drops: np.ndarray, trim: float) -> np.ndarray:
+    """The sampling variance of each velocity's centre, mean over samples: ``(V, D, N)`` -> ``(V,)`` (g^2).
+
+    The jackknife over drops: ``(D - 1) / D sum_j (c_(j) - mean c_(j))^2``, ``c_(j)`` the centre without drop
+    ``j``; for a plain mean (``trim`` 0) it is the sample variance over ``D``. Zero with one drop.
+    """
+    v, d, _ = drops.shape
+    if d < 2:
+        return np.zeros(v)
+    loo = np.stack([centres(np.delete(drops, j, axis=1), trim) for j in range(d)])
+    return (d - 1) / d * np.sum((loo - loo.mean(axis=0)) ** 2, axis=0).mean(axis=-1)
+
+
+def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, penalty: float) -> np.ndarray:
+    """Every interior centre drawn toward what its two neighbours predict of it (empirical Bayes).
+
+    ``e_k = c_k - morph(c_{k-1}, c_{k+1})(w_k)``; ``c_k - a_k e_k`` with ``a_k = min(1, noise_k / mean_j |e_j|^2)``:
+    the share of what the neighbours miss that is ``c_k``'s own sampling noise (the rest is theirs, and how the
+    profile changes between them). The ends keep their centres.
+    """
+    out = np.array(c, dtype=np.float64, copy=True)
+    inner = range(1, len(velocities) - 1)
+    errors = [c[k] - _morph(c[k - 1], c[k + 1], penalty)(
+        float((velocities[k] - velocities[k - 1]) / (velocities[k + 1] - velocities[k - 1]))) for k in inner]
+    mse = float(np.mean([np.mean(e ** 2) for e in errors])) if errors else 0.0
+    if mse > 0.0:
+        for k, e in zip(inner, errors):
+            out[k] = c[k] - min(1.0, noise[k] / mse) * e
+    return out
+
+
+def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float) -> np.ndarray:
+    """The profile at ``v`` from the neighbours ``lo`` and ``hi``: representatives ``reps``, centres ``c``."""
+    w = float((v - velocities[lo]) / (velocities[hi] - velocities[lo]))
+    blend = (1 - w) * reps[lo] + w * reps[hi]
+    return blend + 4 * w * (1 - w) * (_morph(c[lo], c[hi], penalty)(w) - blend)
+
+
+def _folds(data: TrainingData, trim: float):
+    """Per object: ``(obj, drops, centres, velocities, representatives, training targets' indices)``."""
+    for obj, bank in data.banks.items():
+        drops = matching_drops(bank, data.drops[obj])
+        vs = bank.velocities
+        targets = None if data.targets is None else data.targets.get(obj, vs[1:-1])
+        scored = [i for i in range(1, len(bank) - 1)
+                  if targets is None or np.isclose(targets, vs[i], rtol=0, atol=1e-9).any()]
+        yield obj, drops, centres(drops, trim), vs, bank.profiles, scored
+
+
+def _choose(scores: dict, options: tuple, fallback):
+    """Per object its option with the lowest mean score when it has :data:`MIN_FOLDS` folds, else the pooled
+    option (best over every object's folds; ``fallback`` with none); the pooled option; the mean scores."""
+    pooled_scores = {o: [x for own in scores.values() for x in own[o]] for o in options}
+    pooled = min(options, key=lambda o: np.mean(pooled_scores[o])) if pooled_scores[options[0]] else fallback
+    chosen = {obj: min(options, key=lambda o: np.mean(own[o])) if len(own[options[0]]) >= MIN_FOLDS else pooled
+              for obj, own in scores.items()}
+    means = {obj: {o: float(np.mean(v)) for o, v in own.items()} for obj, own in scores.items() if own[options[0]]}
+    return chosen, pooled, means
+
+
+def _rmse(a, b) -> float:
+    return float(np.sqrt(np.mean((a - b) ** 2)))
 
 
 def choose_penalties(data: TrainingData, trim: float) -> tuple[dict[str, float], float, dict[str, dict[float, float]]]:
@@ -67,27 +141,30 @@ def choose_penalties(data: TrainingData, trim: float) -> tuple[dict[str, float],
     its own best penalty when it has at least :data:`MIN_FOLDS` such folds, otherwise the pooled one: the best
     mean over every object's folds (``inf``, no warp, when no object has a fold).
     """
-    scores: dict[str, dict[float, list[float]]] = {}
-    for obj, bank in data.banks.items():
-        drops = matching_drops(bank, data.drops[obj])
-        c, truth = centres(drops, trim), drops.mean(axis=1)
-        reps, vs = bank.profiles, bank.velocities
-        targets = None if data.targets is None else data.targets.get(obj, vs[1:-1])
-        own = scores[obj] = {p: [] for p in PENALTIES}
-        for i in range(1, len(bank) - 1):
-            if targets is not None and not np.isclose(targets, vs[i], rtol=0, atol=1e-9).any():
-                continue  # not a training target (for example an object left out)
-            w = (vs[i] - vs[i - 1]) / (vs[i + 1] - vs[i - 1])
-            blend = (1 - w) * reps[i - 1] + w * reps[i + 1]
-            for p in PENALTIES:
-                pred = blend + 4 * w * (1 - w) * (_morph(c[i - 1], c[i + 1], p)(w) - blend)
-                own[p].append(float(np.sqrt(np.mean((pred - truth[i]) ** 2))))
-    pooled_scores = {p: [x for own in scores.values() for x in own[p]] for p in PENALTIES}
-    pooled = min(PENALTIES, key=lambda p: np.mean(pooled_scores[p])) if pooled_scores[PENALTIES[0]] else float("inf")
-    chosen = {obj: min(PENALTIES, key=lambda p: np.mean(own[p])) if len(own[PENALTIES[0]]) >= MIN_FOLDS else pooled
-              for obj, own in scores.items()}
-    means = {obj: {p: float(np.mean(v)) for p, v in own.items()} for obj, own in scores.items() if own[PENALTIES[0]]}
-    return chosen, pooled, means
+    scores = {}
+    for obj, drops, c, vs, reps, scored in _folds(data, trim):
+        truth = drops.mean(axis=1)
+        scores[obj] = {p: [_rmse(_predict(reps, c, vs, i - 1, i + 1, vs[i], p), truth[i]) for i in scored]
+                       for p in PENALTIES}
+    return _choose(scores, PENALTIES, float("inf"))
+
+
+def choose_shrink(data: TrainingData, trim: float, penalties: dict[str, float]):
+    """Whether each object's centres are shrunk (:func:`shrunk_centres`), the pooled choice, and the scores.
+
+    As :func:`choose_penalties`, with the object's penalty: each training target is left out and predicted from
+    its neighbours' centres, as they are and shrunk among the velocities that remain.
+    """
+    scores = {}
+    for obj, drops, c, vs, reps, scored in _folds(data, trim):
+        truth, noise = drops.mean(axis=1), jackknife_noise(drops, trim)
+        own = scores[obj] = {s: [] for s in SHRINK}
+        for i in scored:
+            keep = np.arange(len(vs)) != i
+            shrunk = shrunk_centres(vs[keep], c[keep], noise[keep], penalties[obj])
+            for s, cc in ((False, c[keep]), (True, shrunk)):  # in the kept arrays, i's neighbours are i - 1 and i
+                own[s].append(_rmse(_predict(reps[keep], cc, vs[keep], i - 1, i, vs[i], penalties[obj]), truth[i]))
+    return _choose(scores, SHRINK, False)
 
 
 class Fit:
@@ -101,13 +178,18 @@ class Fit:
                                f"only representative profiles of {', '.join(missing)} (no raw/ recordings); "
                                "use interpolator: linear")
         self.data = data
-        self.trim_scores = self.penalty_scores = None
+        self.trim_scores = None
         self.trim = trim
         if trim is None:
             self.trim, self.trim_scores = ensemble.choose_trim(data)
         self.penalties, self.pooled_penalty, self.penalty_scores = choose_penalties(data, self.trim)
-        self.centres = {obj: centres(matching_drops(bank, data.drops[obj]), self.trim)
-                        for obj, bank in data.banks.items()}
+        self.shrink, self.pooled_shrink, self.shrink_scores = choose_shrink(data, self.trim, self.penalties)
+        self.centres = {}
+        for obj, bank in data.banks.items():
+            drops = matching_drops(bank, data.drops[obj])
+            c = centres(drops, self.trim)
+            self.centres[obj] = shrunk_centres(bank.velocities, c, jackknife_noise(drops, self.trim),
+                                               self.penalties[obj]) if self.shrink[obj] else c
         self._morphs: dict[tuple[str, int], Morph] = {}
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
 
@@ -140,9 +222,13 @@ class Fit:
         return {"trim": self.trim, "penalty": {obj: name(p) for obj, p in self.penalties.items()},
                 "pooled_penalty": name(self.pooled_penalty),
                 "warped_objects": sum(bool(np.isfinite(p)) for p in self.penalties.values()),
+                "shrink": dict(self.shrink), "pooled_shrink": self.pooled_shrink,
+                "shrunk_objects": sum(self.shrink.values()),
                 "loo_rmse": self.trim_scores,
                 "penalty_loo_rmse": {obj: {("inf" if not np.isfinite(p) else str(p)): x for p, x in own.items()}
-                                     for obj, own in self.penalty_scores.items()}}
+                                     for obj, own in self.penalty_scores.items()},
+                "shrink_loo_rmse": {obj: {str(k).lower(): x for k, x in own.items()}
+                                    for obj, own in self.shrink_scores.items()}}
 
 
 def table_path(dataset_path: Path, reducer: str) -> Path:
@@ -157,8 +243,8 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
                          for k in range(len(v))])
 
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
-                        source={"trim": fit.trim, "penalty": fit.summary()["penalty"]}, dataset=fit.data.dataset,
-                        tolerance=TOLERANCE, progress=progress)
+                        source={"trim": fit.trim, "penalty": fit.summary()["penalty"], "shrink": dict(fit.shrink)},
+                        dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress)
     table.meta["fit"] = fit.summary()
     return table
 
@@ -208,5 +294,5 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
         return {} if self.table is None else {**super().describe(), "penalty": self.table.meta["source"]["penalty"]}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_penalties", "fit_table", "tabulate", "table_path", "MIN_FOLDS",
-           "PENALTIES", "TOLERANCE"]
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_penalties", "choose_shrink", "fit_table", "jackknife_noise",
+           "shrunk_centres", "tabulate", "table_path", "MIN_FOLDS", "PENALTIES", "SHRINK", "TOLERANCE"]
