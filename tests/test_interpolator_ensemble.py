@@ -106,7 +106,8 @@ def test_a_stale_table_is_refused_with_the_command_that_rewrites_it(dataset, tmp
     r = subprocess.run([sys.executable, "-m", "hapticfx", "data", "tables", str(dataset.path)],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert "max-min: trim" in r.stderr and "dft321: trim" in r.stderr
+    for name in ("ensemble", "ensemble-warp"):
+        assert f"{name} interpolator (max-min): trim" in r.stderr and f"{name} interpolator (dft321): trim" in r.stderr
     _model(dataset).profile("wood-beam", 3.0)
 
 

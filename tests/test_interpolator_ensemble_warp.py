@@ -208,23 +208,35 @@ def test_the_table_serves_what_the_method_computes():
     assert table.meta["source"]["penalty"] == {"brick": fit.penalties["brick"]}
 
 
-def test_an_effect_serves_it_from_a_table_fitted_when_it_loads(tmp_path):
+def test_a_dataset_carries_its_table_and_an_effect_without_one_fits_it_when_it_loads(tmp_path):
     from hapticfx.data.build import build_dataset
     from hapticfx.data.dataset import open_dataset
     from hapticfx.data.toy import toy_recordings
+    from hapticfx.interpolators.ensemble_warp import table_path
     from hapticfx.models.datadriven import DataDrivenModel
     from hapticfx.objects import PAPER_OBJECTS
     from hapticfx.params import BuildContext
 
-    recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], [2.42, 2.80, 3.13, 3.43], drops=4, seed=1)]
+    recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], [2.42, 2.80, 3.13, 3.43, 3.96], drops=4, seed=1)]
     ds = open_dataset(build_dataset(tmp_path / "ds", recs, name="w", rate_hz=1000.0, sensor={"model": "synthetic"},
                                     provenance={"source": "test"}))
-    params = DataDrivenModel.Params(dataset=str(ds.path), interpolator="ensemble-warp")
-    model = DataDrivenModel(params, BuildContext(object_id="wood-beam"))
-    assert model.describe()["served_from"]["interpolator"] == "ensemble-warp"
-    bank = model.bank("wood-beam")
+    for reducer in ("max-min", "dft321"):
+        assert table_path(ds.path, reducer).is_file()  # written with the dataset
+
+    def model():
+        params = DataDrivenModel.Params(dataset=str(ds.path), interpolator="ensemble-warp")
+        return DataDrivenModel(params, BuildContext(object_id="wood-beam"))
+
+    shipped = model()
+    assert shipped.describe()["served_from"]["table"] == str(table_path(ds.path, "max-min"))
+    table_path(ds.path, "max-min").unlink()
+    fitted = model()
+    assert fitted.describe()["served_from"]["interpolator"] == "ensemble-warp"
+    assert fitted.describe()["served_from"]["table"] == "velocity table"
+    bank = fitted.bank("wood-beam")
     for k, v in enumerate(bank.velocities):
-        assert np.array_equal(model.profile("wood-beam", float(v)), bank.profiles[k])
-    for v in np.linspace(2.42, 3.43, 23):
-        out = model.profile("wood-beam", float(v))
+        assert np.array_equal(fitted.profile("wood-beam", float(v)), bank.profiles[k])
+    for v in np.linspace(2.42, 3.96, 23):
+        out = fitted.profile("wood-beam", float(v))
         assert np.all(np.isfinite(out)) and np.abs(out).max() <= 2 * np.abs(bank.profiles).max()
+        assert np.allclose(out, shipped.profile("wood-beam", float(v)), rtol=0, atol=1e-12)

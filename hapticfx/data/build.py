@@ -3,8 +3,8 @@
 :func:`build_dataset` preprocesses every drop (:mod:`hapticfx.processing.preprocess`),
 picks a representative drop per velocity (:mod:`hapticfx.processing.representative`,
 honouring manual overrides), and writes the raw recordings, one bank per reducer
-and the fitted ``ensemble`` interpolator's table per reducer
-(:mod:`hapticfx.interpolators.ensemble`) atomically with
+and the tables of the interpolators fitted to every drop (``ensemble`` and
+``ensemble-warp``, :mod:`hapticfx.interpolators.fitted`) per reducer atomically with
 :class:`~hapticfx.data.dataset.DatasetWriter`.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import DatasetError, HapticfxError
 from ..interfaces import TrainingData
-from ..interpolators.ensemble import fit_table, table_path
+from ..interpolators.fitted import save_tables
 from ..objects import ObjectInfo
 from ..processing import representative
 from ..processing.preprocess import Preprocessing, preprocess
@@ -135,9 +135,7 @@ def build_dataset(
             raise DatasetError(f"{out}: no recordings given")
         for rname, items in fits.items():
             data = TrainingData({b.object: b for b, _ in items}, rname, name, {b.object: d for b, d in items})
-            table = fit_table(data)
-            say(f"ensemble interpolator ({rname}): trim {table.meta['source']['trim']}")
-            table.save(table_path(writer.tmp, rname))
+            save_tables(data, writer.tmp, progress=say)
     say(f"wrote {out}")
     return out
 

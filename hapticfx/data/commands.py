@@ -153,12 +153,12 @@ def pick(
 
 
 def tables(dataset: str = typer.Argument(..., help="Dataset directory (its tables/ folder is rewritten).")):
-    """Fit the ensemble interpolator to a dataset's drops and write its tables (one per reducer).
+    """Fit the ensemble and ensemble-warp interpolators to a dataset's drops and write their tables (one per reducer).
 
     `data synth`, `data import`, `data record` and `data pick` write them already; run this for a
     dataset written by an older hapticfx, so that effects load it without fitting.
     """
-    from ..interpolators.ensemble import write_tables
+    from ..interpolators.fitted import write_tables
     from .dataset import open_dataset
 
     write_tables(open_dataset(dataset), progress=say)

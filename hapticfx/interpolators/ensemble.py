@@ -18,8 +18,9 @@ velocity table with the two ends of each interval serves it exactly.
 ``trim`` (the fraction of drops cut at each end, per sample) is learned: ``fit``
 picks it from :data:`TRIMS` by leave-one-velocity-out on the training data alone
 (mean RMSE against the held-out representative). Datasets written by hapticfx carry
-the fitted table (``tables/ensemble-<reducer>.table.npz``); for others it is fitted
-when an effect loads, from the dataset's raw recordings.
+the fitted table (``tables/ensemble-<reducer>.table.npz``,
+:mod:`hapticfx.interpolators.fitted`); for others it is fitted when an effect
+loads, from the dataset's raw recordings.
 """
 
 from __future__ import annotations
@@ -114,19 +115,6 @@ def fit_table(data: TrainingData, *, trim: float | None = None) -> VelocityTable
                             tolerance=0.0, fit={"trims": list(TRIMS), "loo_rmse": scores})
 
 
-def write_tables(dataset, *, progress=None) -> list[Path]:
-    """Fit and write the ensemble table of every bank (reducer) of ``dataset``; returns the files."""
-    from ..data.training import training_data
-
-    say = progress or (lambda message: None)
-    written = []
-    for reducer in dataset.reducers():
-        table = fit_table(training_data(dataset, reducer))
-        written.append(table.save(table_path(dataset.path, reducer)))
-        say(f"{reducer}: trim {table.meta['source']['trim']}, wrote {written[-1]}")
-    return written
-
-
 class EnsembleInterpolator(TableServed):
     """Neighbours drawn toward the trimmed mean of all their recorded drops (see the module docs).
 
@@ -184,5 +172,4 @@ class EnsembleInterpolator(TableServed):
                                               "trim": self.table.meta["source"]["trim"]}
 
 
-__all__ = ["EnsembleInterpolator", "centres", "choose_trim", "fit_table", "matching_drops", "table_path",
-           "write_tables", "TRIMS"]
+__all__ = ["EnsembleInterpolator", "centres", "choose_trim", "fit_table", "matching_drops", "table_path", "TRIMS"]

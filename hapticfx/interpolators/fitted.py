@@ -1,0 +1,47 @@
+"""The interpolators a dataset carries fitted tables of: ``ensemble`` and ``ensemble-warp``.
+
+Both are fitted to every drop of a dataset; a dataset written by hapticfx keeps
+their velocity tables (``tables/<name>-<reducer>.table.npz``), so that an effect
+loads them instead of fitting at every start.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..interfaces import TrainingData
+from . import ensemble, ensemble_warp
+
+FITTED = (ensemble, ensemble_warp)  # modules with NAME, fit_table(data) and table_path(dataset_path, reducer)
+
+
+def describe(table) -> str:
+    """What a fitted table chose, in a few words."""
+    source = table.meta["source"]
+    if "penalty" not in source:
+        return f"trim {source['trim']}"
+    warped = sum(p is not None for p in source["penalty"].values())
+    shrunk = sum(bool(s) for s in source["shrink"].values())
+    return f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk"
+
+
+def save_tables(data: TrainingData, folder: Path, *, progress=None) -> list[Path]:
+    """Fit every interpolator of :data:`FITTED` to ``data`` and save its table under the dataset ``folder``."""
+    say = progress or (lambda message: None)
+    written = []
+    for module in FITTED:
+        table = module.fit_table(data)
+        written.append(table.save(module.table_path(folder, data.reducer)))
+        say(f"{module.NAME} interpolator ({data.reducer}): {describe(table)}; wrote {written[-1]}")
+    return written
+
+
+def write_tables(dataset, *, progress=None) -> list[Path]:
+    """Rewrite the fitted tables of every bank (reducer) of ``dataset``; returns the files."""
+    from ..data.training import training_data
+
+    return [path for reducer in dataset.reducers()
+            for path in save_tables(training_data(dataset, reducer), dataset.path, progress=progress)]
+
+
+__all__ = ["FITTED", "describe", "save_tables", "write_tables"]
