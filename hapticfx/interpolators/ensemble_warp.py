@@ -42,6 +42,7 @@ warp two nodes suffice.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -51,7 +52,9 @@ from . import ensemble
 from .ensemble import EnsembleInterpolator, centres, matching_drops
 from .residual import compose, scale
 from .table import VelocityTable, build_table, neighbours
-from .warp import Morph, displacement, warp_path
+
+if TYPE_CHECKING:
+    from .warp import Morph
 
 NAME = "ensemble-warp"
 PENALTIES = (0.01, 0.03, float("inf"))
@@ -59,7 +62,13 @@ TOLERANCE = 1e-3  # of the neighbours' larger peak: -60 dB
 
 
 def _morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float) -> Morph:
-    """The morph from one drop centre to the next (``penalty`` inf: no warp, the plain blend)."""
+    """The morph from one drop centre to the next (``penalty`` inf: no warp, the plain blend).
+
+    :mod:`hapticfx.interpolators.warp` (scipy's resampling and splines) is imported here, when a fit needs it:
+    an effect served from its table never loads it.
+    """
+    from .warp import Morph, displacement, warp_path
+
     d = displacement(warp_path(lo_c, hi_c, penalty=penalty), len(lo_c)) if np.isfinite(penalty) \
         else np.zeros_like(lo_c)
     return Morph(lo_c, hi_c, d)
