@@ -4,7 +4,7 @@
 
 MuJoCo simulates the room (see room.py); every head contact goes, as it
 happens, to a :class:`hapticfx.Engine` built from the scene file
-(scenes/earthquake_room.yaml: data-driven effects with the ensemble
+(scenes/earthquake_room.yaml: data-driven effects with the ensemble-warp
 interpolator; ``--scene scenes/earthquake_room_convbilstm.yaml`` for the paper's
 ConvBiLSTM, ``--scene scenes/earthquake_room_linear.yaml`` for the linear
 average, ``--scene scenes/earthquake_room_kinetic.yaml`` for the
