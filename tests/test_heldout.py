@@ -74,3 +74,23 @@ def test_a_heldout_set_is_simulated_once_into_the_cache_keyed_by_its_spec(tmp_pa
     assert heldout.resolve("builtin:helmet-drops") == "builtin:helmet-drops"
     spec.write_text(spec.read_text().replace("seed: 5", "seed: 6"))
     assert heldout.dataset_path("tiny") != path  # an edited spec never reuses the old set
+
+
+def test_data_draw_writes_specs_synth_reads_and_refuses_reserved_seeds(tmp_path):
+    out = tmp_path / "rigs"
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "data", "draw", "2700015", "2700016", "--drops", "3",
+                        "--spacing", "irregular", "--out", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    for seed in (2700015, 2700016):
+        path = out / f"draw-{seed}.yaml"
+        assert path.name in r.stdout
+        written = yaml.safe_load(path.read_text())
+        assert written == draw_spec(seed, name=f"draw-{seed}", sim_seed=seed + 10_000, drops=3, spacing="irregular")
+        spec = load_spec(path)  # what `data synth --spec` reads
+        assert spec.drops == 3 and spec.seed == seed + 10_000
+    # one reserved seed (or a seed whose simulation seed is reserved): nothing written, one line, exit 2
+    for bad in ("2600002", "2600500"):
+        r = subprocess.run([sys.executable, "-m", "hapticfx", "data", "draw", "7", bad, "--out", str(tmp_path / "no")],
+                           capture_output=True, text=True)
+        assert r.returncode == 2 and "reserved for the held-out evaluation sets" in r.stderr
+        assert "Traceback" not in r.stderr and not (tmp_path / "no").exists()

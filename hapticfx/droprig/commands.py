@@ -1,4 +1,5 @@
-"""The ``hapticfx data synth``, ``hapticfx bench contact``, ``bench synth``, ``bench physics`` and ``bench families`` commands."""
+"""The ``hapticfx data synth`` and ``data draw``, ``hapticfx bench contact``, ``bench synth``, ``bench physics`` and
+``bench families`` commands."""
 
 from __future__ import annotations
 
@@ -104,6 +105,48 @@ def synth(
     typer.echo(f"wrote {path} in {time.perf_counter() - started:.1f} s")
 
 
+SIM_SEED_OFFSET = 10_000  # a drawn rig is simulated with its draw seed + this
+
+
+def draw(
+    seeds: list[int] = typer.Argument(..., metavar="SEED...", help="Draw seeds, one rig each."),
+    out: Path = typer.Option(..., "--out", "-o", metavar="DIR", help="Folder for the specs (draw-SEED.yaml)."),
+    drops: Optional[int] = typer.Option(None, "--drops", metavar="COUNT", min=1, max=1000,
+                                        help="Drops per velocity (default: drawn, 3-12)."),
+    spacing: Optional[str] = typer.Option(None, "--spacing", metavar="even|even-height|irregular",
+                                          help="Velocity spacing of every object (default: drawn per object)."),
+):
+    """Draw rigs (helmet, sensor, 3-5 objects, their velocities and drop counts) from the ranges the held-out
+    sets were drawn from, as `data synth --spec` files.
+
+    Each rig is simulated with seed SEED + 10000. Seeds reserved for the held-out evaluation sets are refused
+    (hapticfx/datasets/heldout/README.md): a method tuned on drawn rigs is still proved on those sets.
+    Then: `hapticfx data synth DIR/rig --spec DIR/draw-SEED.yaml`.
+    """
+    import yaml
+
+    from ..atomic import atomic_path
+    from .draws import RANGES, check_pretraining_seed, draw_spec
+
+    if spacing is not None and spacing not in RANGES["spacings"]:
+        raise DatasetError(f"--spacing must be one of {', '.join(RANGES['spacings'])}, got {spacing!r}")
+    specs = {}
+    for seed in seeds:  # every seed checked before anything is written
+        check_pretraining_seed(seed)
+        check_pretraining_seed(seed + SIM_SEED_OFFSET)
+        specs[seed] = draw_spec(seed, name=f"draw-{seed}", sim_seed=seed + SIM_SEED_OFFSET, drops=drops,
+                                spacing=spacing)
+    for seed, spec in specs.items():
+        path = out / f"draw-{seed}.yaml"
+        header = (f"# Drawn by `hapticfx data draw {seed}` from hapticfx.droprig.draws.RANGES"
+                  f"{'' if drops is None else f' --drops {drops}'}{'' if spacing is None else f' --spacing {spacing}'}.\n")
+        with atomic_path(path, make_parents=True) as tmp:
+            tmp.write_text(header + yaml.safe_dump(spec, sort_keys=False))
+        objects = ", ".join(f"{o['material']} {o['mass_kg']:g} kg ({len(o['velocities_mps'])} v)"
+                            for o in spec["objects"])
+        typer.echo(f"{path}: {spec['drops']} drops; {objects}")
+
+
 def bench_contact(
     repeats: int = typer.Option(3, "--repeats", metavar="COUNT", min=1, max=100,
                                 help="Timed runs per solver and tolerance."),
@@ -188,5 +231,6 @@ def register(bench: typer.Typer, data: typer.Typer) -> None:
     bench.command("physics")(bench_physics)
     bench.command("families")(bench_families)
     data.command("synth")(synth)
+    data.command("draw")(draw)
     bench.command("synth")(bench_synth)
     bench.command("contact")(bench_contact)
