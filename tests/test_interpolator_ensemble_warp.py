@@ -111,6 +111,18 @@ def test_shrinking_is_chosen_where_noise_dominates_and_brings_the_centres_nearer
     assert not Fit(_data(12.0, noise=0.003)).shrink["brick"]
 
 
+def test_silent_drops_fit_and_serve_silence():
+    v = np.array([2.0, 2.5, 3.0, 3.5, 4.0])
+    drops = np.zeros((len(v), 4, N))
+    bank = ProfileBank("quiet", "max-min", 1000.0, v, drops[:, 0].copy())
+    data = TrainingData({"quiet": bank}, "max-min", "synthetic", {"quiet": (v, drops)})
+    warp = EnsembleWarpInterpolator()
+    warp.fit(data)
+    for x in (2.01, 2.25, 3.99):
+        lo, hi = bank.neighbours(x)
+        assert np.array_equal(warp.interpolate(lo, hi, x), np.zeros(N))
+
+
 def test_shrinking_leaves_noise_free_centres_as_they_are():
     v = np.linspace(2.0, 4.0, 6)
     c = _truth(12.0, v)
@@ -228,7 +240,10 @@ def test_a_dataset_carries_its_table_and_an_effect_without_one_fits_it_when_it_l
         return DataDrivenModel(params, BuildContext(object_id="wood-beam"))
 
     shipped = model()
-    assert shipped.describe()["served_from"]["table"] == str(table_path(ds.path, "max-min"))
+    said = shipped.describe()
+    assert said["served_from"]["table"] == str(table_path(ds.path, "max-min"))
+    assert said["warp penalty"]["wood-beam"] in ("none", 0.01, 0.03)
+    assert said["centres shrunk"]["wood-beam"] in ("yes", "no")
     table_path(ds.path, "max-min").unlink()
     fitted = model()
     assert fitted.describe()["served_from"]["interpolator"] == "ensemble-warp"

@@ -300,7 +300,12 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
     def describe(self) -> dict:
         if self.fitted is not None:
             return {"fitted": self.fitted.summary()}
-        return {} if self.table is None else {**super().describe(), "penalty": self.table.meta["source"]["penalty"]}
+        if self.table is None:
+            return {}
+        source = self.table.meta["source"]
+        return {**super().describe(),
+                "warp penalty": {obj: "none" if p is None else p for obj, p in source["penalty"].items()},
+                "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()}}
 
 
 __all__ = ["EnsembleWarpInterpolator", "Fit", "choose_penalties", "choose_shrink", "fit_table", "jackknife_noise",
