@@ -191,6 +191,7 @@ def test_the_command_writes_tables_json_and_figures(uneven, tmp_path):
     for name in ("tables.md", "results.json", "error_vs_runtime.png", "examples.png"):
         assert (out / name).is_file(), name
     assert "### RMSE vs representative (g)" in r.stdout and "floor: mean of the other drops" in r.stdout
+    assert "| ensemble-warp |" in r.stdout and "| ensemble |" in r.stdout  # default rows: the shipped one and ensemble
     assert "[4/4]" in r.stderr
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--dataset", str(uneven.path),
                         "--protocol", "paper"], capture_output=True, text=True)

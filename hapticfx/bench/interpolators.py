@@ -19,9 +19,10 @@ def interpolators(
                                 "heldout:NAME (a held-out set, simulated on first use; see "
                                 "hapticfx/datasets/heldout/README.md)."),
     reducer: str = typer.Option("max-min", "--reducer", metavar="NAME", help="Which bank of the dataset."),
-    methods: str = typer.Option("linear,ensemble", "--methods", metavar="NAME,...",
-                                help="Comma-separated rows: interpolator names, or "
-                                "rows named in --config. linear is always included: every ratio is against it."),
+    methods: str = typer.Option("linear,ensemble,ensemble-warp", "--methods", metavar="NAME,...",
+                                help="Comma-separated rows: interpolator names, or rows named in --config. linear "
+                                "is always included: every ratio is against it. Default: the shipped effects' "
+                                "ensemble-warp beside ensemble."),
     protocol: str = typer.Option("lovo", "--protocol", metavar="lovo|looo|paper",
                                  help="lovo: leave each interior velocity of every object out "
                                  "in turn (any dataset); looo: leave each object out in turn (no training target "
