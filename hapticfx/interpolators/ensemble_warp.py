@@ -10,7 +10,7 @@ aligned by dynamic time warping and morphed (:mod:`hapticfx.interpolators.warp`)
     centre(w) = morph(Lc, Uc, w)                       (time and value moved a fraction w)
     profile   = blend(w) + 4 w (1 - w) (centre(w) - blend(w))
 
-The recorded representative comes back at its own velocity. Two choices are
+The recorded representative comes back at its own velocity. Three choices are
 learned from the training data alone, leaving one training velocity out at a
 time: ``trim`` exactly as ``ensemble`` chooses it (against the representative),
 then the warp ``penalty`` from :data:`PENALTIES` (``inf``: no warp, the
