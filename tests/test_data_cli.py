@@ -75,7 +75,7 @@ def test_bench_reducers_prints_table4_and_timings(dataset, capsys):
     assert "max-min / DFT321" in out and "20000 samples" in out
 
 
-def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys, monkeypatch):
     bad = tmp_path / "bad.csv"
     bad.write_text("object,velocity_mps,drop,t_s,ax_g,ay_g\n")
     code, out, err = run(capsys, "data", "import", bad, "--out", tmp_path / "ds")
@@ -84,8 +84,14 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
     assert code == 2 and "not a hapticfx dataset" in err
     code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", tmp_path / "missing")
     assert code == 2
+    monkeypatch.chdir(tmp_path)  # the default --out-dir, recordings/, is relative to where the command runs
     code, _, err = run(capsys, "data", "record", "--port", "/dev/nope", "--object", "x", "--height-m", 1)
     assert code == 2 and "cannot open serial port" in err
+    assert not (tmp_path / "recordings").exists()  # a failed start writes nothing, not even the folder
+    (tmp_path / "afile").write_text("x")
+    code, _, err = run(capsys, "data", "record", "--port", "/dev/nope", "--object", "x", "--height-m", 1,
+                       "--out-dir", tmp_path / "afile")
+    assert code == 2 and err.count("\n") == 1 and "afile: not a folder" in err
 
 
 def test_builtin_dataset_banks_agree_with_its_raw_drops(capsys):

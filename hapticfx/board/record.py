@@ -136,7 +136,8 @@ def record_drops(port: str, *, object_id: str, height_m: float, drops: int, out_
                           f"pre_trigger={pre_trigger}, n_samples={n_samples}")
     say = progress or (lambda message: None)
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise SignalError(f"{out_dir}: not a folder; give --out-dir a folder for the CSV files")
     stem = f"{object_id}_h{height_m:g}m"
     written: list[Path] = []
     ser = _open(port, baud)
@@ -165,6 +166,7 @@ def record_drops(port: str, *, object_id: str, height_m: float, drops: int, out_
             last_seq = seq
             done = trigger.feed(info.to_g(counts))
             if done is not None:
+                out_dir.mkdir(parents=True, exist_ok=True)  # made with the first drop: a failed start leaves nothing
                 n = _next_drop(out_dir, stem)
                 file = out_dir / f"{stem}_d{n:02d}.csv"
                 write_drop_csv(file, object_id=object_id, velocity_mps=velocity, drop=n,
