@@ -61,16 +61,24 @@ PENALTIES = (0.01, 0.03, float("inf"))
 TOLERANCE = 1e-3  # of the neighbours' larger peak: -60 dB
 
 
-def _morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float) -> Morph:
+def _morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float, paths: dict | None = None) -> Morph:
     """The morph from one drop centre to the next (``penalty`` inf: no warp, the plain blend).
 
+    ``paths``: displacements already found, by centres and penalty. Choosing a penalty and whether to shrink
+    aligns the same pair of centres again and again, and the alignment is most of a morph's cost.
     :mod:`hapticfx.interpolators.warp` (scipy's resampling and splines) is imported here, when a fit needs it:
     an effect served from its table never loads it.
     """
     from .warp import Morph, displacement, warp_path
 
-    d = displacement(warp_path(lo_c, hi_c, penalty=penalty), len(lo_c)) if np.isfinite(penalty) \
-        else np.zeros_like(lo_c)
+    if not np.isfinite(penalty):
+        return Morph(lo_c, hi_c, np.zeros_like(lo_c))
+    key = (lo_c.tobytes(), hi_c.tobytes(), penalty)
+    d = None if paths is None else paths.get(key)
+    if d is None:
+        d = displacement(warp_path(lo_c, hi_c, penalty=penalty), len(lo_c))
+        if paths is not None:
+            paths[key] = d
     return Morph(lo_c, hi_c, d)
 
 
@@ -91,7 +99,8 @@ def jackknife_noise(drops: np.ndarray, trim: float) -> np.ndarray:
     return (d - 1) / d * np.sum((loo - loo.mean(axis=0)) ** 2, axis=0).mean(axis=-1)
 
 
-def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, penalty: float) -> np.ndarray:
+def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, penalty: float,
+                   paths: dict | None = None) -> np.ndarray:
     """Every interior centre drawn toward what its two neighbours predict of it (empirical Bayes).
 
     ``e_k = c_k - morph(c_{k-1}, c_{k+1})(w_k)``; ``c_k - a_k e_k`` with ``a_k = min(1, noise_k / mean_j |e_j|^2)``:
@@ -100,7 +109,7 @@ def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, pen
     """
     out = np.array(c, dtype=np.float64, copy=True)
     inner = range(1, len(velocities) - 1)
-    errors = [c[k] - _morph(c[k - 1], c[k + 1], penalty)(
+    errors = [c[k] - _morph(c[k - 1], c[k + 1], penalty, paths)(
         float((velocities[k] - velocities[k - 1]) / (velocities[k + 1] - velocities[k - 1]))) for k in inner]
     mse = float(np.mean([np.mean(e ** 2) for e in errors])) if errors else 0.0
     if mse > 0.0:
@@ -109,11 +118,11 @@ def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, pen
     return out
 
 
-def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float) -> np.ndarray:
+def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, paths: dict) -> np.ndarray:
     """The profile at ``v`` from the neighbours ``lo`` and ``hi``: representatives ``reps``, centres ``c``."""
     w = float((v - velocities[lo]) / (velocities[hi] - velocities[lo]))
     blend = (1 - w) * reps[lo] + w * reps[hi]
-    return blend + 4 * w * (1 - w) * (_morph(c[lo], c[hi], penalty)(w) - blend)
+    return blend + 4 * w * (1 - w) * (_morph(c[lo], c[hi], penalty, paths)(w) - blend)
 
 
 def _folds(data: TrainingData, trim: float):
@@ -142,7 +151,8 @@ def _rmse(a, b) -> float:
     return float(np.sqrt(np.mean((a - b) ** 2)))
 
 
-def choose_penalties(data: TrainingData, trim: float) -> tuple[dict[str, float], float, dict[str, dict[float, float]]]:
+def choose_penalties(data: TrainingData, trim: float, paths: dict | None = None
+                     ) -> tuple[dict[str, float], float, dict[str, dict[float, float]]]:
     """The warp penalty of every object, the pooled penalty, and every object's scores.
 
     Each training target of an object is left out in turn and predicted from its neighbours' centres (trimmed
@@ -150,29 +160,30 @@ def choose_penalties(data: TrainingData, trim: float) -> tuple[dict[str, float],
     its own best penalty when it has at least :data:`MIN_FOLDS` such folds, otherwise the pooled one: the best
     mean over every object's folds (``inf``, no warp, when no object has a fold).
     """
-    scores = {}
+    scores, paths = {}, {} if paths is None else paths
     for obj, drops, c, vs, reps, scored in _folds(data, trim):
         truth = drops.mean(axis=1)
-        scores[obj] = {p: [_rmse(_predict(reps, c, vs, i - 1, i + 1, vs[i], p), truth[i]) for i in scored]
+        scores[obj] = {p: [_rmse(_predict(reps, c, vs, i - 1, i + 1, vs[i], p, paths), truth[i]) for i in scored]
                        for p in PENALTIES}
     return _choose(scores, PENALTIES, float("inf"))
 
 
-def choose_shrink(data: TrainingData, trim: float, penalties: dict[str, float]):
+def choose_shrink(data: TrainingData, trim: float, penalties: dict[str, float], paths: dict | None = None):
     """Whether each object's centres are shrunk (:func:`shrunk_centres`), the pooled choice, and the scores.
 
     As :func:`choose_penalties`, with the object's penalty: each training target is left out and predicted from
     its neighbours' centres, as they are and shrunk among the velocities that remain.
     """
-    scores = {}
+    scores, paths = {}, {} if paths is None else paths
     for obj, drops, c, vs, reps, scored in _folds(data, trim):
         truth, noise = drops.mean(axis=1), jackknife_noise(drops, trim)
         own = scores[obj] = {s: [] for s in SHRINK}
         for i in scored:
             keep = np.arange(len(vs)) != i
-            shrunk = shrunk_centres(vs[keep], c[keep], noise[keep], penalties[obj])
+            shrunk = shrunk_centres(vs[keep], c[keep], noise[keep], penalties[obj], paths)
             for s, cc in ((False, c[keep]), (True, shrunk)):  # in the kept arrays, i's neighbours are i - 1 and i
-                own[s].append(_rmse(_predict(reps[keep], cc, vs[keep], i - 1, i, vs[i], penalties[obj]), truth[i]))
+                pred = _predict(reps[keep], cc, vs[keep], i - 1, i, vs[i], penalties[obj], paths)
+                own[s].append(_rmse(pred, truth[i]))
     return _choose(scores, SHRINK, False)
 
 
@@ -191,14 +202,15 @@ class Fit:
         self.trim = trim
         if trim is None:
             self.trim, self.trim_scores = ensemble.choose_trim(data)
-        self.penalties, self.pooled_penalty, self.penalty_scores = choose_penalties(data, self.trim)
-        self.shrink, self.pooled_shrink, self.shrink_scores = choose_shrink(data, self.trim, self.penalties)
+        paths: dict = {}  # the alignments of this fit, shared by its choices (freed when it is done)
+        self.penalties, self.pooled_penalty, self.penalty_scores = choose_penalties(data, self.trim, paths)
+        self.shrink, self.pooled_shrink, self.shrink_scores = choose_shrink(data, self.trim, self.penalties, paths)
         self.centres = {}
         for obj, bank in data.banks.items():
             drops = matching_drops(bank, data.drops[obj])
             c = centres(drops, self.trim)
             self.centres[obj] = shrunk_centres(bank.velocities, c, jackknife_noise(drops, self.trim),
-                                               self.penalties[obj]) if self.shrink[obj] else c
+                                               self.penalties[obj], paths) if self.shrink[obj] else c
         self._morphs: dict[tuple[str, int], Morph] = {}
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
 
