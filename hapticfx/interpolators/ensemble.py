@@ -71,6 +71,15 @@ def matching_drops(bank, drops) -> np.ndarray:
     return reduced[[int(i[0]) for i in idx]]
 
 
+def training_targets(data: TrainingData, obj: str) -> list[int]:
+    """Indices of ``obj``'s interior recorded velocities that are training targets of ``data`` (every one when
+    ``data.targets`` is None; none for an object left out, whose targets list is empty)."""
+    vs = data.banks[obj].velocities
+    targets = None if data.targets is None else data.targets.get(obj, vs[1:-1])
+    return [i for i in range(1, len(vs) - 1)
+            if targets is None or np.isclose(targets, vs[i], rtol=0, atol=1e-9).any()]
+
+
 def choose_trim(data: TrainingData) -> tuple[float, dict[float, float]]:
     """The trim with the lowest mean leave-one-velocity-out RMSE on ``data``'s training targets (and every
     trim's score)."""
@@ -79,10 +88,7 @@ def choose_trim(data: TrainingData) -> tuple[float, dict[float, float]]:
         drops = matching_drops(bank, data.drops[obj])
         cs = {t: centres(drops, t) for t in TRIMS}
         reps = bank.profiles
-        targets = None if data.targets is None else data.targets.get(obj, bank.velocities[1:-1])
-        for i in range(1, len(bank) - 1):
-            if targets is not None and not np.isclose(targets, bank.velocities[i], rtol=0, atol=1e-9).any():
-                continue  # not a training target (for example an object left out)
+        for i in training_targets(data, obj):
             w = (bank.velocities[i] - bank.velocities[i - 1]) / (bank.velocities[i + 1] - bank.velocities[i - 1])
             blend = (1 - w) * reps[i - 1] + w * reps[i + 1]
             for t, c in cs.items():
@@ -172,4 +178,5 @@ class EnsembleInterpolator(TableServed):
                                               "trim": self.table.meta["source"]["trim"]}
 
 
-__all__ = ["EnsembleInterpolator", "centres", "choose_trim", "fit_table", "matching_drops", "table_path", "TRIMS"]
+__all__ = ["EnsembleInterpolator", "centres", "choose_trim", "fit_table", "matching_drops", "table_path",
+           "training_targets", "TRIMS"]

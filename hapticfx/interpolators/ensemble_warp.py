@@ -41,6 +41,7 @@ warp two nodes suffice.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -49,7 +50,7 @@ import numpy as np
 from ..errors import DatasetError, SignalError
 from ..interfaces import Profile, TrainingData
 from . import ensemble
-from .ensemble import EnsembleInterpolator, centres, matching_drops
+from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
 from .residual import compose, scale
 from .table import VelocityTable, build_table, neighbours
 
@@ -125,15 +126,26 @@ def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, pa
     return blend + 4 * w * (1 - w) * (_morph(c[lo], c[hi], penalty, paths)(w) - blend)
 
 
-def _folds(data: TrainingData, trim: float):
-    """Per object: ``(obj, drops, centres, velocities, representatives, training targets' indices)``."""
+@dataclass(frozen=True)
+class _Object:
+    """What the choices need of one object, computed once per fit."""
+
+    velocities: np.ndarray
+    reps: np.ndarray      # representatives (the bank)
+    centres: np.ndarray   # trimmed drop centres
+    means: np.ndarray     # plain drop means: the yardstick of every choice
+    noise: np.ndarray     # the centres' sampling variance (jackknife_noise)
+    scored: list[int]     # training targets' indices
+
+
+def _objects(data: TrainingData, trim: float) -> dict[str, _Object]:
+    """Every object's :class:`_Object` (its drops trimmed by ``trim``)."""
+    out = {}
     for obj, bank in data.banks.items():
         drops = matching_drops(bank, data.drops[obj])
-        vs = bank.velocities
-        targets = None if data.targets is None else data.targets.get(obj, vs[1:-1])
-        scored = [i for i in range(1, len(bank) - 1)
-                  if targets is None or np.isclose(targets, vs[i], rtol=0, atol=1e-9).any()]
-        yield obj, drops, centres(drops, trim), vs, bank.profiles, scored
+        out[obj] = _Object(bank.velocities, bank.profiles, centres(drops, trim), drops.mean(axis=1),
+                           jackknife_noise(drops, trim), training_targets(data, obj))
+    return out
 
 
 def _choose(scores: dict, options: tuple, fallback):
@@ -151,39 +163,32 @@ def _rmse(a, b) -> float:
     return float(np.sqrt(np.mean((a - b) ** 2)))
 
 
-def choose_penalties(data: TrainingData, trim: float, paths: dict | None = None
-                     ) -> tuple[dict[str, float], float, dict[str, dict[float, float]]]:
-    """The warp penalty of every object, the pooled penalty, and every object's scores.
-
-    Each training target of an object is left out in turn and predicted from its neighbours' centres (trimmed
-    by ``trim``); the score is the mean RMSE against the mean of the left-out velocity's drops. An object takes
-    its own best penalty when it has at least :data:`MIN_FOLDS` such folds, otherwise the pooled one: the best
-    mean over every object's folds (``inf``, no warp, when no object has a fold).
-    """
-    scores, paths = {}, {} if paths is None else paths
-    for obj, drops, c, vs, reps, scored in _folds(data, trim):
-        truth = drops.mean(axis=1)
-        scores[obj] = {p: [_rmse(_predict(reps, c, vs, i - 1, i + 1, vs[i], p, paths), truth[i]) for i in scored]
-                       for p in PENALTIES}
-    return _choose(scores, PENALTIES, float("inf"))
+def penalty_folds(objects: dict[str, _Object], paths: dict) -> dict[str, dict[float, list[float]]]:
+    """Per object and penalty, the RMSE of each training target left out and predicted from its neighbours'
+    centres, against the mean of its drops: what each object's penalty is chosen by (:func:`_choose`; an object
+    with fewer than :data:`MIN_FOLDS` folds takes the pooled best, no warp when no object has a fold)."""
+    return {obj: {p: [_rmse(_predict(o.reps, o.centres, o.velocities, i - 1, i + 1, o.velocities[i], p, paths),
+                            o.means[i]) for i in o.scored] for p in PENALTIES}
+            for obj, o in objects.items()}
 
 
-def choose_shrink(data: TrainingData, trim: float, penalties: dict[str, float], paths: dict | None = None):
+def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
+                  folds: dict[str, dict[float, list[float]]], paths: dict):
     """Whether each object's centres are shrunk (:func:`shrunk_centres`), the pooled choice, and the scores.
 
-    As :func:`choose_penalties`, with the object's penalty: each training target is left out and predicted from
-    its neighbours' centres, as they are and shrunk among the velocities that remain.
+    As the penalty is chosen, with the object's penalty: each training target left out is predicted from its
+    neighbours' centres as they are (the penalty's own folds) and shrunk among the velocities that remain.
     """
-    scores, paths = {}, {} if paths is None else paths
-    for obj, drops, c, vs, reps, scored in _folds(data, trim):
-        truth, noise = drops.mean(axis=1), jackknife_noise(drops, trim)
-        own = scores[obj] = {s: [] for s in SHRINK}
-        for i in scored:
-            keep = np.arange(len(vs)) != i
-            shrunk = shrunk_centres(vs[keep], c[keep], noise[keep], penalties[obj], paths)
-            for s, cc in ((False, c[keep]), (True, shrunk)):  # in the kept arrays, i's neighbours are i - 1 and i
-                pred = _predict(reps[keep], cc, vs[keep], i - 1, i, vs[i], penalties[obj], paths)
-                own[s].append(_rmse(pred, truth[i]))
+    scores = {}
+    for obj, o in objects.items():
+        p, shrunk = penalties[obj], []
+        for i in o.scored:
+            keep = np.arange(len(o.velocities)) != i
+            c = shrunk_centres(o.velocities[keep], o.centres[keep], o.noise[keep], p, paths)
+            # in the kept arrays, i's neighbours are i - 1 and i
+            shrunk.append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], p, paths),
+                                o.means[i]))
+        scores[obj] = {False: folds[obj][p], True: shrunk}
     return _choose(scores, SHRINK, False)
 
 
@@ -203,14 +208,12 @@ class Fit:
         if trim is None:
             self.trim, self.trim_scores = ensemble.choose_trim(data)
         paths: dict = {}  # the alignments of this fit, shared by its choices (freed when it is done)
-        self.penalties, self.pooled_penalty, self.penalty_scores = choose_penalties(data, self.trim, paths)
-        self.shrink, self.pooled_shrink, self.shrink_scores = choose_shrink(data, self.trim, self.penalties, paths)
-        self.centres = {}
-        for obj, bank in data.banks.items():
-            drops = matching_drops(bank, data.drops[obj])
-            c = centres(drops, self.trim)
-            self.centres[obj] = shrunk_centres(bank.velocities, c, jackknife_noise(drops, self.trim),
-                                               self.penalties[obj], paths) if self.shrink[obj] else c
+        objects = _objects(data, self.trim)
+        folds = penalty_folds(objects, paths)
+        self.penalties, self.pooled_penalty, self.penalty_scores = _choose(folds, PENALTIES, float("inf"))
+        self.shrink, self.pooled_shrink, self.shrink_scores = choose_shrink(objects, self.penalties, folds, paths)
+        self.centres = {obj: shrunk_centres(o.velocities, o.centres, o.noise, self.penalties[obj], paths)
+                        if self.shrink[obj] else o.centres for obj, o in objects.items()}
         self._morphs: dict[tuple[str, int], Morph] = {}
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
 
@@ -320,5 +323,6 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
                 "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()}}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_penalties", "choose_shrink", "fit_table", "jackknife_noise",
-           "shrunk_centres", "tabulate", "table_path", "MIN_FOLDS", "PENALTIES", "SHRINK", "TOLERANCE"]
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "fit_table", "jackknife_noise",
+           "penalty_folds", "shrunk_centres", "tabulate", "table_path", "MIN_FOLDS", "PENALTIES", "SHRINK",
+           "TOLERANCE"]
