@@ -267,7 +267,8 @@ def bench_output(
             typer.echo("skipped: .ci/soundserver.sh not found (run from the repository root)")
         else:
             typer.echo("| fault | detected (s, median) | back after its return (s): median | max | impacts heard after "
-                       "| heard after play (ms, max) | cut off by the outage |\n|---|---:|---:|---:|---:|---:|---:|")
+                       "| heard after play (ms, max) | cut off by the outage | outages after its return |"
+                       "\n|---|---:|---:|---:|---:|---:|---:|---:|")
             from .actuator import AUTO_QUEUE_S
 
             faults = [(mode, queued, f"{label}; {stream}")
@@ -282,9 +283,11 @@ def bench_output(
                 lost = sum(int(r.get("lost", 0)) for r in runs)
                 after = [float(r["heard_after_s"]) * 1e3 for r in runs if r.get("heard_after_s", "never") != "never"]
                 after = f"{max(after):.1f}" if after else "-"  # only a resumed server's capture clock is trusted
+                # a restarted server may stall its first streams: further outages, each counted and come back from
+                again = sum(int(r.get("outages_after_back", 0)) for r in runs) if mode == "restart" else "-"
                 typer.echo(f"| {label} | {np.median(det):.3f} | {np.median(back):.3f} | {max(back):.3f} "
-                           f"| {heard}/{len(runs)} (never back: {len(runs) - len(back)}) | {after} | {lost} |"
-                           if back and det else f"| {label} | - | never | - | 0/{len(runs)} | - | {lost} |")
+                           f"| {heard}/{len(runs)} (never back: {len(runs) - len(back)}) | {after} | {lost} | {again} |"
+                           if back and det else f"| {label} | - | never | - | 0/{len(runs)} | - | {lost} | {again} |")
 
     typer.echo("\n## solenoid command round trip (pseudo-terminal + emulator)\n")
     try:

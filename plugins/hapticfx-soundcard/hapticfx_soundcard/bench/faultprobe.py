@@ -6,8 +6,9 @@ or stall-resume (stopped for 1 s, then continued) | restart (killed, then starte
 again by .ci/soundserver.sh, whose path is in ``HAPTICFX_SOUNDSERVER``). Prints one
 ``key value`` line per observation; exits 0 when it survived. ``recovered_s`` is
 from the server's return (continued, or answering ``pactl info`` again) to the
-first impact the actuator takes again; ``heard`` counts the clicks then recorded
-from the sink's monitor, ``heard_after_s`` (stall-resume) how long after ``play``
+first impact the actuator takes again; ``outages_after_back`` (restart) counts the outages of the
+stream after that (a server just started may stall its first streams), before a click is played once the
+server has settled; ``heard`` counts the clicks then recorded from the sink's monitor, ``heard_after_s`` (stall-resume) how long after ``play``
 the first began; ``buffer_changes`` how often the stream's buffer was lengthened, ``stalls_outside``
 how many waits between audio callbacks outlasted the buffer away from the outage (the machine's own).
 QUEUE (seconds, default 0) is the actuator's ``queue`` option: the PulseAudio queue instead of PortAudio.
@@ -41,6 +42,20 @@ tone = Signal(0.2 * np.sin(2 * np.pi * 100 * np.arange(2 * rate) / rate), rate)
 
 def say(key, value):
     print(f"{key} {value}", flush=True)
+
+
+def wait_until_it_plays(since: float, key: str) -> bool:
+    """Wait up to 10 s for the actuator to take impacts again; says ``key`` (seconds since ``since``, or never)."""
+    while True:
+        try:
+            act.check()
+            say(key, f"{time.monotonic() - since:.3f}")
+            return True
+        except DeviceError:
+            if time.monotonic() - since > 10:
+                say(key, "never")
+                return False
+            time.sleep(0.005)
 
 
 act = VibroTransducer(VibroTransducer.Params(queue=queue, **buffer), BuildContext(device="default"))
@@ -99,16 +114,18 @@ if mode in ("stall-resume", "restart"):
                 raise SystemExit("the sound server did not start again")
             time.sleep(0.01)
         t_back = time.monotonic()
-    while True:
-        try:
-            act.check()
-            say("recovered_s", f"{time.monotonic() - t_back:.3f}")
-            break
-        except DeviceError:
-            if time.monotonic() - t_back > 10:
-                say("recovered_s", "never")
-                break
-            time.sleep(0.005)
+    outages = act._stream.outages
+    if not wait_until_it_plays(t_back, "recovered_s"):
+        raise SystemExit("the actuator took no impact within 10 s of the server's return")
+    if mode == "restart":
+        # A server just started may stall its first streams for 1-2 s on a loaded machine (seen beside
+        # stress-ng --cpu 2): a second outage, which the stream reports and comes back from like the first.
+        # The click is played once the server has settled as its script waits for (keep-alive, then 2.5 s)
+        # and the stream plays again; how many such outages there were is reported, not hidden.
+        server.wait(timeout=30)
+        if not wait_until_it_plays(time.monotonic(), "settled_s"):
+            raise SystemExit("the actuator took no impact within 10 s of the server settling")
+        say("outages_after_back", act._stream.outages - outages)
     # the impact is heard, on the same (or the new) server; through a capture buffer that a loaded machine does
     # not overflow (its times are the capture's clock, which the buffer does not move)
     with LoopbackRecorder(rate, latency=CAPTURE_S) as rec:
@@ -125,8 +142,6 @@ if mode in ("stall-resume", "restart"):
     # waits between audio callbacks longer than the buffer that lie wholly outside the outage: the machine's
     # own stalls, which a longer buffer rightly answers
     say("stalls_outside", sum(1 for end, gap in act.late_callbacks if end < t_fault or end - gap > t_back))
-    if mode == "restart":
-        server.wait(timeout=30)  # the script's keep-alive and settle time
 
 t = time.monotonic()
 act.close()
