@@ -64,7 +64,7 @@ def test_floor_of_the_drop_mean_is_its_sampling_error():
     base = rng.standard_normal(300)
     assert measures.mean_sampling_rmse(np.stack([base] * 6)) == 0.0  # a noiseless set: floor 0
     f = measures.floors(np.stack([base] * 6), 1)
-    assert f["mean_sampling_rmse"] == 0.0 and f["drop_pairs_lsd_db"] == 0.0
+    assert f["mean_sampling_rmse"] == 0.0 and f["drop_pairs_lsd_db"] == 0.0 and f["mean_of_others_lsd_db"] < 1e-9
     # D drops with iid noise sigma: the mean's error is sigma / sqrt(D), and the estimate says so
     for d in (3, 10):
         drops = base + 0.2 * rng.standard_normal((d, 300))
@@ -72,6 +72,25 @@ def test_floor_of_the_drop_mean_is_its_sampling_error():
         truth_mean = np.mean([measures.rmse(base, (base + 0.2 * rng.standard_normal((d, 300))).mean(axis=0))
                               for _ in range(200)])
         assert np.isclose(truth_mean, 0.2 / np.sqrt(d), rtol=0.05)  # what an oracle scores against the mean
+
+
+def test_the_drop_mean_loses_the_detail_each_drop_has_on_the_spectral_measure():
+    """Drops that share a slow pulse and differ in their fine detail: the mean of the others keeps the pulse and
+    loses most of the detail, so against each drop it is nearer in RMSE than another drop and further in LSD."""
+    rng = np.random.default_rng(7)
+    t = np.arange(500) / 1000.0
+    pulse = np.exp(-((t - 0.1) / 0.01) ** 2)
+    drops = pulse + 0.05 * rng.standard_normal((10, 500))
+    f = measures.floors(drops, 0)
+    direct = np.mean([measures.log_spectral_distance(np.delete(drops, j, axis=0).mean(axis=0), drops[j])
+                      for j in range(10)])
+    assert np.isclose(f["mean_of_others_lsd_db"], direct, rtol=1e-12)
+    assert f["mean_of_others_rmse"] < f["drop_to_drop_rmse"]
+    assert f["mean_of_others_lsd_db"] > f["drop_pairs_lsd_db"]
+    from hapticfx.evaluation import perceptual
+
+    pairs = perceptual.drop_pairs(drops, rate_hz=1000.0)
+    assert 0.0 <= pairs["mean_of_others_stsim"] <= 1.0 and 0.0 <= pairs["mean_of_others_spqi"] <= 1.0
 
 
 def test_gap_share_is_0_for_linear_1_at_the_floor_and_undefined_without_a_gap():
@@ -219,8 +238,18 @@ def test_protocol_criteria_and_table(uneven):
     assert md.count("| ensemble |") == 1
     from hapticfx.evaluation.protocol import combined
 
-    both = combined([(results, summarise(results, boot=100))] * 2)
+    summary = summarise(results, boot=100)
+    both = combined([(results, summary)] * 2)
     assert both.count("| ensemble |") == 2 and "| linear |" not in both
+    # what the drop mean itself scores, per dataset: the floors over linear's mean score
+    from hapticfx.evaluation.protocol import ideal
+
+    got = ideal(summary)
+    lin = summary["methods"]["linear"]
+    assert got["lsd_drops_db"] == summary["floors"]["mean_of_others_lsd_db"] / lin["lsd_drops_db"]
+    assert set(got) == {"lsd_drops_db", "stsim", "spqi"}
+    assert both.count(f"| {got['lsd_drops_db']:.3f} | {got['stsim']:.3f} | {got['spqi']:.3f} |") == 2
+    assert "The drop mean itself against each drop / linear: LSD" in md
 
 
 def test_generalisation_takes_no_dataset(tmp_path):

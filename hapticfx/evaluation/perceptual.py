@@ -114,10 +114,16 @@ def scores(pred, truths, *, rate_hz: float) -> dict[str, float]:
 
 
 def drop_pairs(drops, *, rate_hz: float) -> dict[str, float]:
-    """What the recordings score against each other: each drop as the prediction of every other drop (mean)."""
-    d = [prepare(x, rate_hz=rate_hz) for x in np.atleast_2d(drops)]
+    """What the recordings score against each other: each drop as the prediction of every other drop (mean);
+    and ``mean_of_others_*``: the mean of the other drops as the prediction of each drop (the RMSE floors'
+    ideal, on these measures)."""
+    raw = np.atleast_2d(drops)
+    d = [prepare(x, rate_hz=rate_hz) for x in raw]
     if len(d) < 2:
         return {}
     pairs = [(i, j) for i in range(len(d)) for j in range(len(d)) if i != j]
+    means = [prepare(np.delete(raw, j, axis=0).mean(axis=0), rate_hz=rate_hz) for j in range(len(d))]
     return {"drop_to_drop_stsim": float(np.mean([st_sim(d[i], d[j]) for i, j in pairs])),
-            "drop_to_drop_spqi": float(np.mean([spqi(d[i], d[j]) for i, j in pairs]))}
+            "drop_to_drop_spqi": float(np.mean([spqi(d[i], d[j]) for i, j in pairs])),
+            "mean_of_others_stsim": float(np.mean([st_sim(m, d[j]) for j, m in enumerate(means)])),
+            "mean_of_others_spqi": float(np.mean([spqi(m, d[j]) for j, m in enumerate(means)]))}
