@@ -227,6 +227,12 @@ class SoundCardActuator(Actuator):
         return self._require_stream().underflows
 
     @property
+    def outages(self) -> int:
+        """Outages of the output so far (each began when the stream failed or stalled, and ended when it played
+        again)."""
+        return self._require_stream().outages
+
+    @property
     def output_latency_s(self) -> float:
         """The device stream's output latency (its buffer), as PortAudio reported it when the stream opened."""
         return self._require_stream().output_latency_s

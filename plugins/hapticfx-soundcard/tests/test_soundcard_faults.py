@@ -67,6 +67,7 @@ def test_a_failing_sound_server_gives_a_clear_error_quickly(mode, queue, output,
     assert seen["message"].startswith(output) and any(c in seen["message"] for c in causes), seen["message"]
     assert float(seen["play_after_s"].split()[0]) < 0.25  # at once: not after a reconnection's 0.5 s
     assert int(seen["lost"]) == 1  # the tone that was sounding
+    assert seen["outages"] == "1"  # one outage, however it was noticed
     assert seen["other_played"] == "1"
     assert float(seen["close_s"]) < 1.5
     assert quiet(stderr)

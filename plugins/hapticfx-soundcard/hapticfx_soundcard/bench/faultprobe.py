@@ -95,6 +95,7 @@ try:
 except DeviceError as exc:
     say("play_after_s", f"{time.monotonic() - t:.3f} {exc}")
 say("lost", act.losses().get("outage", 0))
+say("outages", act.outages)
 
 other.play(tone)
 say("other_played", other.received)
@@ -114,7 +115,7 @@ if mode in ("stall-resume", "restart"):
                 raise SystemExit("the sound server did not start again")
             time.sleep(0.01)
         t_back = time.monotonic()
-    outages = act._stream.outages
+    outages = act.outages
     if not wait_until_it_plays(t_back, "recovered_s"):
         raise SystemExit("the actuator took no impact within 10 s of the server's return")
     if mode == "restart":
@@ -125,7 +126,7 @@ if mode in ("stall-resume", "restart"):
         server.wait(timeout=30)
         if not wait_until_it_plays(time.monotonic(), "settled_s"):
             raise SystemExit("the actuator took no impact within 10 s of the server settling")
-        say("outages_after_back", act._stream.outages - outages)
+        say("outages_after_back", act.outages - outages)
     # the impact is heard, on the same (or the new) server; through a capture buffer that a loaded machine does
     # not overflow (its times are the capture's clock, which the buffer does not move)
     with LoopbackRecorder(rate, latency=CAPTURE_S) as rec:
