@@ -7,10 +7,12 @@ again by .ci/soundserver.sh, whose path is in ``HAPTICFX_SOUNDSERVER``). Prints 
 ``key value`` line per observation; exits 0 when it survived. ``recovered_s`` is
 from the server's return (continued, or answering ``pactl info`` again) to the
 first impact the actuator takes again; ``outages_after_back`` (restart) counts the outages of the
-stream after that (a server just started may stall its first streams), before a click is played once the
-server has settled; ``heard`` counts the clicks then recorded from the sink's monitor, ``heard_after_s`` (stall-resume) how long after ``play``
-the first began; ``buffer_changes`` how often the stream's buffer was lengthened, ``stalls_outside``
-how many waits between audio callbacks outlasted the buffer away from the outage (the machine's own).
+stream after that (a server just started may stall its first streams), before a click is played once
+the server has settled; ``heard`` counts the clicks then recorded from the sink's monitor,
+``heard_after_s`` (stall-resume) how long after ``play`` the first began; ``buffer_changes`` how often
+the stream's buffer was lengthened, ``stalls_outside`` how many waits between audio callbacks
+outlasted the buffer away from the outage (the machine's own); ``outages`` how many outages the
+output had when the fault was detected.
 QUEUE (seconds, default 0) is the actuator's ``queue`` option: the PulseAudio queue instead of PortAudio.
 LATENCY (seconds; default PortAudio's 'low' with the shipped max_latency) starts the PortAudio stream with
 that buffer and lets it grow up to 1 s: the tests' choice, a buffer that a loaded machine's own stalls do
