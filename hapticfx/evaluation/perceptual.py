@@ -36,6 +36,7 @@ from scipy.fft import dct
 from scipy.special import ndtr
 
 from ..dsp import resample_rate
+from .measures import leave_one_out_means
 from ..signal import valid_number, valid_signal
 
 BLOCK = 512
@@ -122,7 +123,7 @@ def drop_pairs(drops, *, rate_hz: float) -> dict[str, float]:
     if len(d) < 2:
         return {}
     pairs = [(i, j) for i in range(len(d)) for j in range(len(d)) if i != j]
-    means = [prepare(np.delete(raw, j, axis=0).mean(axis=0), rate_hz=rate_hz) for j in range(len(d))]
+    means = [prepare(m, rate_hz=rate_hz) for m in leave_one_out_means(raw)]
     return {"drop_to_drop_stsim": float(np.mean([st_sim(d[i], d[j]) for i, j in pairs])),
             "drop_to_drop_spqi": float(np.mean([spqi(d[i], d[j]) for i, j in pairs])),
             "mean_of_others_stsim": float(np.mean([st_sim(m, d[j]) for j, m in enumerate(means)])),

@@ -27,7 +27,7 @@ FLOOR_ROWS = {  # measure -> floors shown under its table
     "peak_db": ["drop_to_drop_peak_db"], "stsim": ["drop_to_drop_stsim", "mean_of_others_stsim"],
     "spqi": ["drop_to_drop_spqi", "mean_of_others_spqi"],
 }
-IDEAL = "reference: the mean of the other drops against each (the RMSE floors' ideal)"
+IDEAL_LABEL = "reference: the mean of the other drops against each (the RMSE floors' ideal)"
 FLOOR_LABELS = {
     "drop_to_drop_rmse": "floor: another drop at the same velocity",
     "mean_of_others_rmse": "floor: mean of the other drops (partly circular: the representative is their medoid)",
@@ -37,9 +37,9 @@ FLOOR_LABELS = {
     "drop_to_drop_peak_db": "floor: another drop at the same velocity",
     "drop_to_drop_stsim": "ceiling: a recorded drop against the others",
     "drop_to_drop_spqi": "ceiling: a recorded drop against the others",
-    "mean_of_others_lsd_db": IDEAL,
-    "mean_of_others_stsim": IDEAL,
-    "mean_of_others_spqi": IDEAL,
+    "mean_of_others_lsd_db": IDEAL_LABEL,
+    "mean_of_others_stsim": IDEAL_LABEL,
+    "mean_of_others_spqi": IDEAL_LABEL,
 }
 
 
