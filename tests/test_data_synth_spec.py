@@ -79,8 +79,20 @@ def test_bad_specs_name_the_file_and_key(tmp_path, change, match):
 
 def test_spec_and_object_options_do_not_mix(tmp_path):
     r = subprocess.run([sys.executable, "-m", "hapticfx", "data", "synth", str(tmp_path / "x"), "--spec",
-                        str(_write(tmp_path, SPEC)), "--drops", "3"], capture_output=True, text=True)
-    assert r.returncode == 2 and "--spec gives the objects, velocities, drops and seed" in r.stderr
+                        str(_write(tmp_path, SPEC)), "--seed", "3"], capture_output=True, text=True)
+    assert r.returncode == 2 and "--spec gives the objects, velocities and seed" in r.stderr
+    assert not (tmp_path / "x").exists()
+
+
+def test_drops_replaces_the_spec_count_and_the_dataset_says_so(tmp_path):
+    # the same rig and objects recorded more times (a dense set to measure what a method could reach)
+    out = tmp_path / "dense"
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "data", "synth", str(out), "--spec",
+                        str(_write(tmp_path, SPEC)), "--drops", "3", "--jobs", "1"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    ds = open_dataset(out)
+    assert ds.raw("tile")[1].shape[:2] == (3, 3) and ds.raw("mallet")[1].shape[:2] == (2, 3)
+    assert ds.meta["provenance"]["command"].endswith("--drops 3")
 
 
 def test_a_spec_names_a_shipped_receiver_the_same_the_contact_model_uses(tmp_path):

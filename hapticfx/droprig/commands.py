@@ -33,7 +33,9 @@ def synth(
                                 help="Comma-separated built-in object ids, or 'all'."),
     velocities: str = typer.Option("", "--velocities", metavar="M/S,...",
                                    help="Comma-separated velocities in m/s (default: the paper's 12)."),
-    drops: int = typer.Option(10, "--drops", metavar="COUNT", min=1, max=1000, help="Drops per velocity."),
+    drops: Optional[int] = typer.Option(None, "--drops", metavar="COUNT", min=1, max=1000,
+                                        help="Drops per velocity (default: 10, or the --spec's count, which this "
+                                             "replaces: the same rig and objects recorded more or fewer times)."),
     seed: int = typer.Option(20230417, "--seed", metavar="SEED",
                              help="Random seed: the same seed gives the same recordings."),
     workers: int = typer.Option(0, "--jobs", "-j", "--workers", metavar="COUNT", min=0, max=256,
@@ -48,7 +50,7 @@ def synth(
                                         help="YAML spec: other objects (mass, size, material), "
                                         "velocities per object, drops, seed, helmet and sensor (see docs/physics.md), "
                                         "or an impact family's effect file with its velocities (docs/families.md); "
-                                        "not with --objects, --velocities, --drops, --seed."),
+                                        "not with --objects, --velocities, --seed."),
 ):
     """Simulate drops on the helmet rig and write a dataset (raw 3-axis recordings + banks).
 
@@ -62,7 +64,7 @@ def synth(
     if heldout is not None:
         from ..evaluation import heldout as held
 
-        if builtin or spec is not None or objects != "all" or velocities or drops != sim.BUILTIN_DROPS \
+        if builtin or spec is not None or objects != "all" or velocities or drops is not None \
                 or seed != sim.BUILTIN_SEED:
             raise DatasetError("--heldout simulates a fixed spec; it takes no --builtin, --spec, --objects, "
                                "--velocities, --drops or --seed")
@@ -76,7 +78,7 @@ def synth(
         typer.echo(f"done in {time.perf_counter() - started:.1f} s")
         return
     if builtin:
-        if out is not None or objects != "all" or velocities or drops != sim.BUILTIN_DROPS or seed != sim.BUILTIN_SEED:
+        if out is not None or objects != "all" or velocities or drops is not None or seed != sim.BUILTIN_SEED:
             raise DatasetError("--builtin regenerates the packaged dataset exactly; it takes no OUT, --objects, "
                                "--velocities, --drops or --seed")
         path = sim.synth_builtin(workers=workers, progress=say)
@@ -85,19 +87,21 @@ def synth(
 
         if out is None:
             raise DatasetError("give an output directory for --spec")
-        if objects != "all" or velocities or drops != sim.BUILTIN_DROPS or seed != sim.BUILTIN_SEED:
-            raise DatasetError("--spec gives the objects, velocities, drops and seed; drop --objects, --velocities, "
-                               "--drops and --seed")
+        if objects != "all" or velocities or seed != sim.BUILTIN_SEED:
+            raise DatasetError("--spec gives the objects, velocities and seed; drop --objects, --velocities and "
+                               "--seed")
         s = load_spec(spec)
-        path = sim.synth_dataset(out, s.objects, s.velocities, drops=s.drops, seed=s.seed, name=s.name, rig=s.rig,
-                                 variation=s.variation, workers=workers, overwrite=force, progress=say,
-                                 command=f"hapticfx data synth {out} --spec {spec}")
+        path = sim.synth_dataset(out, s.objects, s.velocities, drops=drops or s.drops, seed=s.seed, name=s.name,
+                                 rig=s.rig, variation=s.variation, workers=workers, overwrite=force, progress=say,
+                                 command=f"hapticfx data synth {out} --spec {spec}"
+                                 + (f" --drops {drops}" if drops else ""))
     else:
         if out is None:
             raise DatasetError("give an output directory (or --builtin)")
         infos = list(PAPER_OBJECTS.values()) if objects == "all" else [
             builtin_object(o.strip(), key="--objects") for o in objects.split(",") if o.strip()]
         vs = _floats(velocities, option="--velocities") if velocities else list(sim.PAPER_VELOCITIES)
+        drops = drops or sim.BUILTIN_DROPS
         command = (f"hapticfx data synth {out} --objects {','.join(i.id for i in infos)} "
                    f"--velocities {','.join(f'{v:g}' for v in vs)} --drops {drops} --seed {seed}")
         path = sim.synth_dataset(out, infos, vs, drops=drops, seed=seed, workers=workers,
