@@ -62,7 +62,7 @@ PENALTIES = (0.01, 0.03, float("inf"))
 TOLERANCE = 1e-3  # of the neighbours' larger peak: -60 dB
 
 
-def _morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float, paths: dict | None = None) -> Morph:
+def morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float, paths: dict | None = None) -> Morph:
     """The morph from one drop centre to the next (``penalty`` inf: no warp, the plain blend).
 
     ``paths``: displacements already found, by centres and penalty. Choosing a penalty and whether to shrink
@@ -110,7 +110,7 @@ def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, pen
     """
     out = np.array(c, dtype=np.float64, copy=True)
     inner = range(1, len(velocities) - 1)
-    errors = [c[k] - _morph(c[k - 1], c[k + 1], penalty, paths)(
+    errors = [c[k] - morph(c[k - 1], c[k + 1], penalty, paths)(
         float((velocities[k] - velocities[k - 1]) / (velocities[k + 1] - velocities[k - 1]))) for k in inner]
     mse = float(np.mean([np.mean(e ** 2) for e in errors])) if errors else 0.0
     if mse > 0.0:
@@ -123,7 +123,7 @@ def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, pa
     """The profile at ``v`` from the neighbours ``lo`` and ``hi``: representatives ``reps``, centres ``c``."""
     w = float((v - velocities[lo]) / (velocities[hi] - velocities[lo]))
     blend = (1 - w) * reps[lo] + w * reps[hi]
-    return blend + 4 * w * (1 - w) * (_morph(c[lo], c[hi], penalty, paths)(w) - blend)
+    return blend + 4 * w * (1 - w) * (morph(c[lo], c[hi], penalty, paths)(w) - blend)
 
 
 @dataclass(frozen=True)
@@ -221,7 +221,7 @@ class Fit:
         """The morph from the centre at recorded velocity ``i`` of ``obj`` to the one at ``i + 1``."""
         key = (obj, i)
         if key not in self._morphs:
-            self._morphs[key] = _morph(self.centres[obj][i], self.centres[obj][i + 1], self.penalties[obj])
+            self._morphs[key] = morph(self.centres[obj][i], self.centres[obj][i + 1], self.penalties[obj])
         return self._morphs[key]
 
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
@@ -323,6 +323,6 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
                 "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()}}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "fit_table", "jackknife_noise",
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "fit_table", "jackknife_noise", "morph",
            "penalty_folds", "shrunk_centres", "tabulate", "table_path", "MIN_FOLDS", "PENALTIES", "SHRINK",
            "TOLERANCE"]
