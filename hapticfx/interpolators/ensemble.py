@@ -80,21 +80,31 @@ def training_targets(data: TrainingData, obj: str) -> list[int]:
             if targets is None or np.isclose(targets, vs[i], rtol=0, atol=1e-9).any()]
 
 
-def choose_trim(data: TrainingData) -> tuple[float, dict[float, float]]:
+TRIM_TARGETS = ("representative", "mean")
+
+
+def choose_trim(data: TrainingData, *, against: str = "representative") -> tuple[float, dict[float, float]]:
     """The trim with the lowest mean leave-one-velocity-out RMSE on ``data``'s training targets (and every
-    trim's score)."""
+    trim's score), against each left-out velocity's ``representative`` or the ``mean`` of its drops.
+
+    The representative is the medoid of its drops, so against it a median-like centre wins (``ensemble``'s
+    choice); against the mean, which ``bench interpolators`` also scores by, the plain mean usually does.
+    """
+    if against not in TRIM_TARGETS:
+        raise ValueError(f"against must be one of {TRIM_TARGETS}, got {against!r}")
     scores = {t: [] for t in TRIMS}
     for obj, bank in data.banks.items():
         drops = matching_drops(bank, data.drops[obj])
         cs = {t: centres(drops, t) for t in TRIMS}
         reps = bank.profiles
+        targets = reps if against == "representative" else drops.mean(axis=1)
         for i in training_targets(data, obj):
             w = (bank.velocities[i] - bank.velocities[i - 1]) / (bank.velocities[i + 1] - bank.velocities[i - 1])
             blend = (1 - w) * reps[i - 1] + w * reps[i + 1]
             for t, c in cs.items():
                 centre = (1 - w) * c[i - 1] + w * c[i + 1]
                 pred = blend + 4 * w * (1 - w) * (centre - blend)
-                scores[t].append(float(np.sqrt(np.mean((pred - reps[i]) ** 2))))
+                scores[t].append(float(np.sqrt(np.mean((pred - targets[i]) ** 2))))
     if not any(scores.values()):
         return FALLBACK_TRIM, {}
     mean = {t: float(np.mean(v)) for t, v in scores.items()}

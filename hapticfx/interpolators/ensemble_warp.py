@@ -12,12 +12,15 @@ aligned by dynamic time warping and morphed (:mod:`hapticfx.interpolators.warp`)
 
 The recorded representative comes back at its own velocity. Three choices are
 learned from the training data alone, leaving one training velocity out at a
-time: ``trim`` exactly as ``ensemble`` chooses it (against the representative),
-then the warp ``penalty`` from :data:`PENALTIES` (``inf``: no warp, the
-``ensemble`` itself) **for each object**, against the mean of the left-out
-velocity's drops. An object's events move with velocity by its own law (a heavy
-object bounces late, a light one not at all; a helmet's ringing stays where it
-is, and a warp that pairs its cycles one period apart is worse than none), so
+time and scoring against the mean of the left-out velocity's drops: ``trim``
+from ``ensemble``'s list (``ensemble`` chooses it against the representative,
+the medoid of those drops, which favours a median-like centre; against their
+mean the plain mean usually wins, and it is the better estimate of what the
+neighbours share), then the warp ``penalty`` from :data:`PENALTIES` (``inf``: no
+warp, the ``ensemble`` itself) **for each object**. An object's events move
+with velocity by its own law (a heavy object bounces late, a light one not at
+all; a helmet's ringing stays where it is, and a warp that pairs its cycles one
+period apart is worse than none), so
 one penalty for a whole dataset is wrong for some of its objects; and the mean
 of a velocity's drops is a far less noisy yardstick than its one representative
 drop. An object with fewer than :data:`MIN_FOLDS` velocities to leave out (and
@@ -206,7 +209,7 @@ class Fit:
         self.trim_scores = None
         self.trim = trim
         if trim is None:
-            self.trim, self.trim_scores = ensemble.choose_trim(data)
+            self.trim, self.trim_scores = ensemble.choose_trim(data, against="mean")
         paths: dict = {}  # the alignments of this fit, shared by its choices (freed when it is done)
         objects = _objects(data, self.trim)
         folds = penalty_folds(objects, paths)
