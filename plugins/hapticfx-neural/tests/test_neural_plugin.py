@@ -99,13 +99,36 @@ def test_shipped_weights_play_the_brick_with_convbilstm(tmp_path):
     assert d.profile.n_samples == 500 and np.all(np.isfinite(d.profile.samples)) and d.profile.peak > 0
 
 
-def test_bench_learnable_takes_other_gaps_and_refuses_bad_ones(tmp_path, drop_dataset):
+def test_bench_learnable_takes_other_gaps_and_trims_says_when_it_cannot_validate_and_refuses_bad_ones(tmp_path, drop_dataset):
     cfg = tiny_config(tmp_path, drop_dataset)
     r = _cli("bench", "learnable", str(cfg), "--gaps", "1,2")
     assert r.returncode == 0, r.stderr
     assert "gaps [1, 2]" in r.stdout and "share of the mean square that is sampling noise" in r.stdout
     bad = _cli("bench", "learnable", str(cfg), "--gaps", "0")
     assert bad.returncode == 2 and "--gaps" in bad.stderr and "Traceback" not in bad.stderr
+    few = _cli("bench", "learnable", str(cfg))  # 4 targets: too few for a validation split, said, not NaN
+    assert few.returncode == 0 and "none: the split needs 5 target velocities" in few.stdout
+    assert "nan" not in few.stdout and "Warning" not in few.stderr
+    bad = _cli("bench", "learnable", str(cfg), "--trim", "0.5")
+    assert bad.returncode == 2 and "trim" in bad.stderr and "with --trim" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_bench_learnable_trim_moves_where_the_blend_starts_not_the_noise_budget(tmp_path):
+    from hapticfx.data.build import build_dataset
+    from hapticfx.data.toy import toy_recordings
+    from hapticfx.objects import PAPER_OBJECTS
+
+    rec = toy_recordings(PAPER_OBJECTS["wood-beam"], [2.2, 2.5, 2.8, 3.1, 3.4, 3.7, 4.0, 4.3], drops=5, seed=4)
+    ds = build_dataset(tmp_path / "eight", [rec], name="eight", rate_hz=1000.0, sensor={},
+                       provenance={"generator": "hapticfx.data.toy (tests)"})
+    cfg = tiny_config(tmp_path, ds)
+    plain, median = (_cli("bench", "learnable", str(cfg), "--trim", t) for t in ("0", "0.4"))
+    assert plain.returncode == 0 and median.returncode == 0, plain.stderr + median.stderr
+    assert "trim 0\n" in plain.stdout and "trim 0.4\n" in median.stdout and "nan" not in plain.stdout + median.stdout
+    row = lambda out, what: next(line for line in out.splitlines() if line.startswith(f"| {what}"))  # noqa: E731
+    # the noise budget is of plain drop means whatever the trim; the blend the learner starts from is not
+    assert row(plain.stdout, "blend of drop means") == row(median.stdout, "blend of drop means")
+    assert row(plain.stdout, "validation RMSE (normalised)") != row(median.stdout, "validation RMSE (normalised)")
 
 
 def test_bench_threads_compares_thread_counts_under_load(tmp_path, syn_dataset):

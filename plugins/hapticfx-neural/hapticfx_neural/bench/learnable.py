@@ -41,14 +41,17 @@ def noise_budget(data) -> tuple[float, float]:
     return float(np.mean(obs)), float(np.mean(noise))
 
 
-def ridge_scores(data, *, val_fraction: float, seed: int, steps: int) -> tuple[float, dict[float, float]]:
-    """Validation RMSE (normalised) of the plain blend and of ridge regression at each penalty."""
+def ridge_scores(data, *, val_fraction: float, seed: int, steps: int) -> tuple[float, dict[float, float]] | None:
+    """Validation RMSE (normalised) of the plain blend and of ridge regression at each penalty (None when the
+    training split holds no validation triple: fewer than 5 target velocities, or ``val_fraction`` 0)."""
     import torch
 
     from ..samples import encode
     from ..training import _split
 
     tr, va = _split(data, val_fraction, torch.Generator().manual_seed(seed))
+    if len(va) == 0:
+        return None
     t = data.centres()
     x, vel, y = encode(t, steps=steps, v_mean=0.0, v_std=1.0)
     n = len(y)
@@ -71,6 +74,10 @@ def learnable(
     gaps: Optional[str] = typer.Option(None, "--gaps", metavar="N,...",
                                        help="Neighbours this many recorded velocities either side, instead of the "
                                             "configuration's `gaps` (e.g. 1 for adjacent neighbours only)."),
+    trim: Optional[float] = typer.Option(None, "--trim", metavar="FRACTION",
+                                         help="The centres' trim, instead of the configuration's `trim` (0: the "
+                                              "plain mean): what is left to learn depends on where the blend "
+                                              "starts."),
 ):
     """What is left to learn after the blend of the neighbours' drop centres: noise budget and a linear learner."""
     from hapticfx.errors import EffectError
@@ -87,15 +94,21 @@ def learnable(
         if not wanted or not all(1 <= g <= MAX_GAP for g in wanted):
             raise EffectError(f"expected comma-separated integers in [1, {MAX_GAP}], got {gaps!r}", key="--gaps")
         cfg = config_from_mapping({**cfg.as_dict(), "gaps": wanted}, source=cfg.source)
+    if trim is not None:
+        cfg = config_from_mapping({**cfg.as_dict(), "trim": trim}, source=f"{cfg.source} with --trim")
     _, data, meta = config_triples(cfg)
     obs, noise = noise_budget(data)
-    base, scores = ridge_scores(data, val_fraction=cfg.training["val_fraction"], seed=cfg.training["seed"],
-                                steps=cfg.model["steps"])
-    typer.echo(f"{meta['name']}: {len(data)} triples, gaps {cfg.gaps}")
+    ridge = ridge_scores(data, val_fraction=cfg.training["val_fraction"], seed=cfg.training["seed"],
+                         steps=cfg.model["steps"])
+    typer.echo(f"{meta['name']}: {len(data)} triples, gaps {cfg.gaps}, trim {cfg.trim:g}")
     rows = [["blend of drop means vs target drop mean: mean square (g^2)", f"{obs:.5f}"],
             ["the same from the sampling noise of the three means alone", f"{noise:.5f}"],
-            ["share of the mean square that is sampling noise", f"{min(noise / obs, 1.0):.1%}"],
-            ["validation RMSE (normalised), blend of the centres (trimmed as configured)", f"{base:.5f}"]]
-    rows += [[f"validation RMSE, ridge (penalty {lam:g}) on the network's inputs", f"{s:.5f} ({s / base:.3f}x)"]
-             for lam, s in scores.items()]
+            ["share of the mean square that is sampling noise", f"{min(noise / obs, 1.0):.1%}"]]
+    if ridge is None:
+        rows.append(["validation RMSE", "none: the split needs 5 target velocities and a val_fraction above 0"])
+    else:
+        base, scores = ridge
+        rows.append(["validation RMSE (normalised), blend of the centres (trimmed as configured)", f"{base:.5f}"])
+        rows += [[f"validation RMSE, ridge (penalty {lam:g}) on the network's inputs", f"{s:.5f} ({s / base:.3f}x)"]
+                 for lam, s in scores.items()]
     typer.echo(table(["what", "value"], rows))
