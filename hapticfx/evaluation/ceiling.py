@@ -63,11 +63,7 @@ class Split:
     truth: np.ndarray    # (V, N): the population means
     var: np.ndarray      # (V,): the drops' variance about them, mean over samples
     population: int      # drops behind each population mean
-
-    @property
-    def reps(self) -> np.ndarray:
-        """The representatives: the medoid of each velocity's recorded drops."""
-        return np.stack([s[medoid(s)] for s in self.sample])
+    reps: np.ndarray     # (V, N): the representatives, the medoid of each velocity's recorded drops
 
 
 def split(obj: str, velocities: np.ndarray, drops: np.ndarray, recorded: int) -> Split:
@@ -78,9 +74,10 @@ def split(obj: str, velocities: np.ndarray, drops: np.ndarray, recorded: int) ->
         raise DatasetError(f"object {obj!r}: {d} drops per velocity; measuring with {recorded} recorded needs at "
                            f"least {recorded + MIN_POPULATION} (and --recorded at least 2): synthesise a dense set, "
                            "e.g. `hapticfx data synth OUT --spec SPEC --drops 60`")
-    population = drops[:, recorded:].astype(np.float64)
-    return Split(obj, np.asarray(velocities, dtype=np.float64), drops[:, :recorded].astype(np.float64),
-                 population.mean(axis=1), population.var(axis=1, ddof=1).mean(axis=-1), population.shape[1])
+    sample, population = drops[:, :recorded].astype(np.float64), drops[:, recorded:].astype(np.float64)
+    return Split(obj, np.asarray(velocities, dtype=np.float64), sample, population.mean(axis=1),
+                 population.var(axis=1, ddof=1).mean(axis=-1), population.shape[1],
+                 np.stack([s[medoid(s)] for s in sample]))
 
 
 def _scaled(o: Split, i: int, pred: np.ndarray) -> float:

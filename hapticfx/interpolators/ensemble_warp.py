@@ -20,10 +20,9 @@ neighbours share), then the warp ``penalty`` from :data:`PENALTIES` (``inf``: no
 warp, the ``ensemble`` itself) **for each object**. An object's events move
 with velocity by its own law (a heavy object bounces late, a light one not at
 all; a helmet's ringing stays where it is, and a warp that pairs its cycles one
-period apart is worse than none), so
-one penalty for a whole dataset is wrong for some of its objects; and the mean
-of a velocity's drops is a far less noisy yardstick than its one representative
-drop. An object with fewer than :data:`MIN_FOLDS` velocities to leave out (and
+period apart is worse than none), so one penalty for a whole dataset is wrong
+for some of its objects; and the mean of a velocity's drops is a far less noisy
+yardstick than its one representative drop. An object with fewer than :data:`MIN_FOLDS` velocities to leave out (and
 an object the training data gives no targets of: a new object) takes the
 penalty that scores best over every object's folds.
 
