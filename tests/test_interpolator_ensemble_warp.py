@@ -102,8 +102,8 @@ def test_the_warp_is_chosen_where_the_bounce_moves_and_left_out_where_it_does_no
     assert np.isfinite(chosen)
     assert moving.penalty_scores["brick"][chosen] < moving.penalty_scores["brick"][float("inf")]
     assert not np.isfinite(still.penalties["brick"])
-    data = _data(0.0)  # no warp and no detail given back: the ensemble's blend of the (here shrunk) centres
-    warp = EnsembleWarpInterpolator(detail=0.0)
+    data = _data(0.0)  # no warp: the ensemble's blend of the (here shrunk) centres, number for number
+    warp = EnsembleWarpInterpolator()
     warp.fit(data)
     c = warp.fitted.centres["brick"]
     lo, hi = data.banks["brick"][1], data.banks["brick"][2]
@@ -287,5 +287,4 @@ def test_the_built_in_sets_shipped_table_is_what_a_fit_of_its_drops_chooses_now(
     ds = open_dataset("builtin:helmet-drops")
     shipped = VelocityTable.load(table_path(ds.path, reducer)).meta["source"]
     summary = Fit(training_data(ds, reducer)).summary()
-    assert shipped == {"trim": summary["trim"], "detail": summary["detail"], "penalty": summary["penalty"],
-                       "shrink": summary["shrink"]}
+    assert shipped == {"trim": summary["trim"], "penalty": summary["penalty"], "shrink": summary["shrink"]}

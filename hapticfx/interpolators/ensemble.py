@@ -150,12 +150,8 @@ class EnsembleInterpolator(TableServed):
     fit_table = staticmethod(fit_table)  # what a subclass fits and where a dataset keeps it
     table_path = staticmethod(table_path)
 
-    def fixed(self) -> dict:
-        """The options that replace a fitted choice (None: fitted); a table fitted with other values is refitted."""
-        return {"trim": self.trim}
-
     def fit(self, data: TrainingData, **options) -> dict:
-        self.table = self.fit_table(data, **self.fixed())
+        self.table = self.fit_table(data, trim=self.trim)
         return {"trim": self.table.meta["source"]["trim"], "loo_rmse": self.table.meta["fit"]["loo_rmse"]}
 
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
@@ -171,13 +167,13 @@ class EnsembleInterpolator(TableServed):
             path = self.table_path(dataset.path, bank.reducer)
         if path is not None and (self.table_file is not None or path.is_file()):
             table = VelocityTable.load(path)
-            if all(v is None or table.meta["source"].get(k) == v for k, v in self.fixed().items()):
+            if self.trim is None or table.meta["source"].get("trim") == self.trim:
                 return table
         if dataset is None:
             raise DatasetError(f"the {self.name} interpolator needs its dataset's recorded drops or a fitted table")
         from ..data.training import training_data
 
-        return self.fit_table(training_data(dataset, bank.reducer), **self.fixed())
+        return self.fit_table(training_data(dataset, bank.reducer), trim=self.trim)
 
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
         lo, hi, v = neighbours(lower, upper, velocity)

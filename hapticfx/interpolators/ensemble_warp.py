@@ -35,14 +35,6 @@ drops), an empirical-Bayes smoother across velocity that pools the drops of
 four recorded velocities into each interval instead of two. Where the profile
 changes faster than the noise (many drops, sparse velocities) it is left out.
 
-Last, for the whole dataset: how much of the drops' fine detail the centres get
-back (:mod:`hapticfx.interpolators.detail`, :func:`choose_detail`). A mean of
-drops that ring out of phase is duller than any of them, and scores below the
-blend of two recorded drops on spectral measures against every drop; giving the
-detail back costs RMSE against the drop mean. The least share that is no worse
-than linear spectrally while keeping the bar's share of the gap to the drop
-mean's floor is chosen, on the same left-out training velocities.
-
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
 the method by at most :data:`TOLERANCE` of the neighbours' larger peak; with no
@@ -59,9 +51,7 @@ import numpy as np
 
 from ..errors import DatasetError, SignalError
 from ..interfaces import Profile, TrainingData
-from ..signal import valid_number
 from . import ensemble
-from .detail import ALPHAS, gain as detail_gain, power as detail_power, restore as detail_restore
 from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
 from .residual import compose, scale
 from .table import VelocityTable, build_table, neighbours
@@ -144,13 +134,10 @@ class _Object:
 
     velocities: np.ndarray
     reps: np.ndarray      # representatives (the bank)
-    drops: np.ndarray     # every drop (V, D, N)
     centres: np.ndarray   # trimmed drop centres
     means: np.ndarray     # plain drop means: the yardstick of every choice
     noise: np.ndarray     # the centres' sampling variance (jackknife_noise)
-    power: np.ndarray     # the drops' mean power spectrum (detail.power)
     scored: list[int]     # training targets' indices
-    rate_hz: float
 
 
 def _objects(data: TrainingData, trim: float) -> dict[str, _Object]:
@@ -158,9 +145,8 @@ def _objects(data: TrainingData, trim: float) -> dict[str, _Object]:
     out = {}
     for obj, bank in data.banks.items():
         drops = matching_drops(bank, data.drops[obj])
-        out[obj] = _Object(bank.velocities, bank.profiles, drops, centres(drops, trim), drops.mean(axis=1),
-                           jackknife_noise(drops, trim), detail_power(drops, bank.rate_hz).mean(axis=1),
-                           training_targets(data, obj), bank.rate_hz)
+        out[obj] = _Object(bank.velocities, bank.profiles, centres(drops, trim), drops.mean(axis=1),
+                           jackknife_noise(drops, trim), training_targets(data, obj))
     return out
 
 
@@ -200,7 +186,7 @@ def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
         p, shrunk = penalties[obj], []
         for i in o.scored:
             keep = np.arange(len(o.velocities)) != i
-            c = _fold_centres(o, i, p, True, paths)
+            c = shrunk_centres(o.velocities[keep], o.centres[keep], o.noise[keep], p, paths)
             # in the kept arrays, i's neighbours are i - 1 and i
             shrunk.append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], p, paths),
                                 o.means[i]))
@@ -208,91 +194,11 @@ def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
     return _choose(scores, SHRINK, False)
 
 
-def _fold_centres(o: _Object, i: int, penalty: float, shrink: bool, paths: dict) -> np.ndarray:
-    """``o``'s centres with velocity ``i`` left out, shrunk among the rest when ``shrink``."""
-    keep = np.arange(len(o.velocities)) != i
-    if not shrink:
-        return o.centres[keep]
-    return shrunk_centres(o.velocities[keep], o.centres[keep], o.noise[keep], penalty, paths)
-
-
-def _restored(o_power: np.ndarray, c_power: np.ndarray, lo: int, centre: np.ndarray, w: float,
-              alpha: float) -> np.ndarray:
-    """``centre`` (the morph at ``w`` from centre ``lo`` to ``lo + 1``) with ``alpha`` of the detail given back."""
-    if alpha == 0.0:
-        return centre
-    return detail_restore(centre, detail_gain(o_power[lo], o_power[lo + 1], c_power[lo], c_power[lo + 1], w, alpha))
-
-
-DETAIL_MEASURES = ("lsd", "stsim", "spqi")  # spectral: each against every drop; then RMSE against their mean
-
-
-def choose_detail(objects: dict[str, _Object], penalties: dict[str, float], shrink: dict[str, bool],
-                  paths: dict) -> tuple[float, dict]:
-    """How much of the drops' detail the centres get back (:mod:`hapticfx.interpolators.detail`), and the scores.
-
-    Each training target is left out and predicted as the fit predicts it (the object's penalty, its centres
-    shrunk or not), with each of :data:`ALPHAS`, and scored against every one of its drops by
-    log-spectral distance, ST-SIM and SPQI, beside linear (the blend of the representatives), and by RMSE
-    against their mean. The bar of issue 26 asks for both kinds: an ``alpha`` is admissible while it keeps
-    :data:`hapticfx.evaluation.protocol.SHARE` of the gap between linear and the drop means' sampling floor
-    (0 always is). The least admissible ``alpha`` that is no worse than linear on all three spectral measures
-    (means over every object's targets) is chosen; failing that the least no worse on log-spectral distance;
-    failing that 0 (the centres as they are, nearest the drop mean). The measures are imported here: a fit
-    needs them, an effect served from its table does not.
-    """
-    from ..evaluation.measures import log_spectral_distance, mean_sampling_rmse
-    from ..evaluation.perceptual import scores as perceptual
-    from ..evaluation.protocol import SHARE
-
-    def measured(pred, drops, rate):
-        got = perceptual(pred, drops, rate_hz=rate)
-        return (float(np.mean(log_spectral_distance(pred, drops, rate_hz=rate))), got["stsim"], got["spqi"],
-                _rmse(pred, drops.mean(axis=0)))
-
-    keys = (*DETAIL_MEASURES, "rmse_mean")
-
-    rows: dict = {a: [] for a in ("linear", *ALPHAS)}
-    floor = []
-    for obj, o in objects.items():
-        p = penalties[obj]
-        for i in o.scored:
-            keep = np.arange(len(o.velocities)) != i
-            c = _fold_centres(o, i, p, shrink[obj], paths)
-            vs, reps, pw = o.velocities[keep], o.reps[keep], o.power[keep]
-            w = float((o.velocities[i] - vs[i - 1]) / (vs[i] - vs[i - 1]))
-            blend = (1 - w) * reps[i - 1] + w * reps[i]
-            centre = morph(c[i - 1], c[i], p, paths)(w)
-            c_power = detail_power(c[i - 1:i + 1], o.rate_hz)
-            rows["linear"].append(measured(blend, o.drops[i], o.rate_hz))
-            floor.append(mean_sampling_rmse(o.drops[i]))
-            for a in ALPHAS:
-                restored = _restored(pw[i - 1:i + 1], c_power, 0, centre, w, a)
-                rows[a].append(measured(blend + 4 * w * (1 - w) * (restored - blend), o.drops[i], o.rate_hz))
-    if not rows["linear"]:
-        return 0.0, {}
-    means = {str(a): dict(zip(keys, np.mean(v, axis=0).tolist())) for a, v in rows.items()}
-    lin, gap = means["linear"], means["linear"]["rmse_mean"] - float(np.mean(floor))
-    for m in means.values():
-        m["share"] = (lin["rmse_mean"] - m["rmse_mean"]) / gap if gap > 0 else float("nan")
-    admissible = [a for a in ALPHAS if a == 0.0 or means[str(a)]["share"] >= SHARE]
-
-    def no_worse(a, which):
-        m = means[str(a)]
-        return all(m[k] <= lin[k] if k == "lsd" else m[k] >= lin[k] for k in which)
-
-    for which in (DETAIL_MEASURES, ("lsd",)):
-        for a in admissible:
-            if no_worse(a, which):
-                return a, means
-    return 0.0, means
-
-
 class Fit:
     """What the method learned from ``data``: ``trim``, every object's ``penalties`` and drop centres; the morph
     of each recorded interval is made on first use."""
 
-    def __init__(self, data: TrainingData, *, trim: float | None = None, detail: float | None = None):
+    def __init__(self, data: TrainingData, *, trim: float | None = None):
         missing = [obj for obj in data.banks if obj not in data.drops]
         if missing:
             raise DatasetError(f"the {NAME} interpolator needs every recorded drop; dataset {data.dataset!r} keeps "
@@ -310,10 +216,6 @@ class Fit:
         self.shrink, self.pooled_shrink, self.shrink_scores = choose_shrink(objects, self.penalties, folds, paths)
         self.centres = {obj: shrunk_centres(o.velocities, o.centres, o.noise, self.penalties[obj], paths)
                         if self.shrink[obj] else o.centres for obj, o in objects.items()}
-        self.detail, self.detail_scores = detail, None
-        if detail is None:
-            self.detail, self.detail_scores = choose_detail(objects, self.penalties, self.shrink, paths)
-        self._power = {obj: (o.power, detail_power(self.centres[obj], o.rate_hz)) for obj, o in objects.items()}
         self._morphs: dict[tuple[str, int], Morph] = {}
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
 
@@ -326,8 +228,7 @@ class Fit:
 
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
         """``r`` of :mod:`hapticfx.interpolators.residual` at ``w`` between ``lower`` (at ``v_lo``) and ``upper``."""
-        i = self._index[(obj, float(v_lo))]
-        centre = _restored(*self._power[obj], i, self.morph(obj, i)(w), w, self.detail)
+        centre = self.morph(obj, self._index[(obj, float(v_lo))])(w)
         return (centre - (1 - w) * lower - w * upper) / scale(lower, upper)
 
     def find(self, lower, upper) -> str | None:
@@ -344,8 +245,7 @@ class Fit:
         def name(p):
             return None if not np.isfinite(p) else p
 
-        return {"trim": self.trim, "detail": self.detail,
-                "penalty": {obj: name(p) for obj, p in self.penalties.items()},
+        return {"trim": self.trim, "penalty": {obj: name(p) for obj, p in self.penalties.items()},
                 "pooled_penalty": name(self.pooled_penalty),
                 "warped_objects": sum(bool(np.isfinite(p)) for p in self.penalties.values()),
                 "shrink": dict(self.shrink), "pooled_shrink": self.pooled_shrink,
@@ -354,8 +254,7 @@ class Fit:
                 "penalty_loo_rmse": {obj: {("inf" if not np.isfinite(p) else str(p)): x for p, x in own.items()}
                                      for obj, own in self.penalty_scores.items()},
                 "shrink_loo_rmse": {obj: {str(k).lower(): x for k, x in own.items()}
-                                    for obj, own in self.shrink_scores.items()},
-                "detail_loo": self.detail_scores}
+                                    for obj, own in self.shrink_scores.items()}}
 
 
 def table_path(dataset_path: Path, reducer: str) -> Path:
@@ -370,23 +269,21 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
                          for k in range(len(v))])
 
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
-                        source={"trim": fit.trim, "detail": fit.detail, "penalty": fit.summary()["penalty"],
-                                "shrink": dict(fit.shrink)},
+                        source={"trim": fit.trim, "penalty": fit.summary()["penalty"], "shrink": dict(fit.shrink)},
                         dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress)
     table.meta["fit"] = fit.summary()
     return table
 
 
-def fit_table(data: TrainingData, *, trim: float | None = None, detail: float | None = None) -> VelocityTable:
-    """The ensemble-warp's velocity table for every object of ``data`` (``trim`` and ``detail`` chosen when not
-    given)."""
-    return tabulate(Fit(data, trim=trim, detail=detail))
+def fit_table(data: TrainingData, *, trim: float | None = None) -> VelocityTable:
+    """The ensemble-warp's velocity table for every object of ``data`` (``trim`` and the penalty chosen when
+    ``trim`` is not given)."""
+    return tabulate(Fit(data, trim=trim))
 
 
 class EnsembleWarpInterpolator(EnsembleInterpolator):
     """The ensemble with its neighbours' drop centres aligned in time before they blend (see the module docs).
-    Options as ``ensemble``'s (``table``, ``trim``) and ``detail`` (fix how much of the drops' detail the centres
-    get back, 0-1, instead of the fitted share; :mod:`hapticfx.interpolators.detail`).
+    Options as ``ensemble``'s: ``table``, ``trim``.
 
     After :meth:`fit` (an evaluation) it answers directly from what it fitted; an effect serves it from its
     table (the dataset's ``tables/ensemble-warp-<reducer>.table.npz``, or tabulated when the effect loads).
@@ -398,16 +295,8 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
     fit_table = staticmethod(fit_table)
     table_path = staticmethod(table_path)
 
-    def __init__(self, *, table=None, trim: float | None = None, detail: float | None = None):
-        super().__init__(table=table, trim=trim)
-        self.detail = None if detail is None else valid_number(detail, name="interpolator_options.detail",
-                                                               minimum=0.0, maximum=1.0)
-
-    def fixed(self) -> dict:
-        return {**super().fixed(), "detail": self.detail}
-
     def fit(self, data: TrainingData, **options) -> dict:
-        self.fitted, self.table = Fit(data, **self.fixed()), None
+        self.fitted, self.table = Fit(data, trim=self.trim), None
         return {k: v for k, v in self.fitted.summary().items() if not isinstance(v, dict)}
 
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
@@ -433,10 +322,9 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
         source = self.table.meta["source"]
         return {**super().describe(),
                 "warp penalty": {obj: "none" if p is None else p for obj, p in source["penalty"].items()},
-                "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()},
-                "detail given back": source.get("detail", 0.0)}
+                "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()}}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_detail", "choose_shrink", "fit_table", "jackknife_noise", "morph",
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "fit_table", "jackknife_noise", "morph",
            "penalty_folds", "shrunk_centres", "tabulate", "table_path", "MIN_FOLDS", "PENALTIES", "SHRINK",
            "TOLERANCE"]

@@ -22,8 +22,7 @@ def describe(table) -> str:
         return f"trim {source['trim']}"
     warped = sum(p is not None for p in source["penalty"].values())
     shrunk = sum(bool(s) for s in source["shrink"].values())
-    return (f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk, "
-            f"detail {source.get('detail', 0.0)}")
+    return f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk"
 
 
 def save_tables(data: TrainingData, folder: Path, *, progress=None) -> list[Path]:
