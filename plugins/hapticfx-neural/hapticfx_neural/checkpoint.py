@@ -109,7 +109,7 @@ def check_meta(meta: dict, where: Path) -> None:
     import math
     import re
 
-    from .config import ARCHS, MODEL_DEFAULTS, _check_model
+    from .config import ADDED_MODEL_KEYS, ARCHS, MODEL_DEFAULTS, _check_model
 
     src = str(where)
 
@@ -119,6 +119,9 @@ def check_meta(meta: dict, where: Path) -> None:
 
     need("interpolator", meta.get("interpolator") in ARCHS, f"one of {', '.join(ARCHS)}")
     model = meta.get("model")
+    if isinstance(model, dict):  # keys added since the checkpoint was written: what it was trained with
+        model = meta["model"] = {**{k: v for k, v in ADDED_MODEL_KEYS.items()
+                                    if k in MODEL_DEFAULTS[meta["interpolator"]]}, **model}
     need("model", isinstance(model, dict) and set(model) == set(MODEL_DEFAULTS[meta["interpolator"]]),
          f"a mapping with {', '.join(MODEL_DEFAULTS[meta['interpolator']])}")
     _check_model(model, src, error=CheckpointError)

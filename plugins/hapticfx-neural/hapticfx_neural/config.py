@@ -19,16 +19,23 @@ ARCHS = ("convbilstm", "lstm", "bilstm", "lstm-sae", "bilstm-ed", "convlstm-ed")
 # (2 x 200); the encoder-decoder baselines use the ConvBiLSTM's layer sizes, and
 # the stacked LSTM autoencoder a symmetric 128-64 / 64-128 stack.
 _ED = {"encoder_sizes": [256, 128, 64], "decoder_sizes": [256, 180, 150],
-       "encoder_dropout": 0.4, "decoder_dropout": 0.3}
+       "encoder_dropout": 0.4, "decoder_dropout": 0.3, "decoder_input": "repeat"}
 MODEL_DEFAULTS: dict[str, dict] = {
     "convbilstm": {"steps": 50, "kernel": 3, **_ED},
     "convlstm-ed": {"steps": 50, "kernel": 3, **_ED},
     "bilstm-ed": {"steps": 50, **_ED},
     "lstm-sae": {"steps": 50, "encoder_sizes": [128, 64], "decoder_sizes": [64, 128],
-                 "encoder_dropout": 0.2, "decoder_dropout": 0.2},
+                 "encoder_dropout": 0.2, "decoder_dropout": 0.2, "decoder_input": "repeat"},
     "lstm": {"steps": 50, "sizes": [200], "dropout": 0.0},
     "bilstm": {"steps": 50, "sizes": [200, 200], "dropout": 0.0},
 }
+# What an encoder-decoder's decoder reads at each step: "repeat", the paper's repeat vector (the encoder's final
+# state, the same at every step); "sequence", the encoder's output at that step (docs/neural.md: through the
+# repeat vector the decoder could not place a correction in time, and the network learned nothing even where a
+# linear learner could).
+DECODER_INPUTS = ("repeat", "sequence")
+# Model keys added after checkpoints were first written, and what a checkpoint without them was trained with.
+ADDED_MODEL_KEYS = {"decoder_input": "repeat"}
 TRAINING_DEFAULTS = {
     "epochs": 100, "batch_size": 8, "learning_rate": 1e-4, "beta1": 0.9, "val_fraction": 0.2,
     "patience": 30, "seed": 0, "threads": 1, "augment": True,
@@ -126,6 +133,10 @@ def _check_model(m: dict, source: str, error: type = EffectError) -> None:
         elif k.endswith("dropout"):
             if isinstance(v, bool) or not (isinstance(v, (int, float)) and 0 <= v < 1):
                 raise error("expected a number in [0, 1)", source=source, key=where)
+        elif k == "decoder_input":
+            if v not in DECODER_INPUTS:
+                raise error("expected repeat (the paper's repeat vector) or sequence (the encoder's output at each "
+                            "step)", source=source, key=where)
         elif k in ("steps", "kernel"):
             if not (isinstance(v, int) and not isinstance(v, bool) and 0 < v <= 100_000) or (k == "kernel" and v % 2 == 0):
                 raise error("expected a positive integer (kernel: odd)", source=source, key=where)

@@ -96,14 +96,16 @@ class SequenceRegressor(nn.Module):
 class EncoderDecoder(nn.Module):
     """Encoder -> repeat vector -> decoder -> dense layer that also takes the velocity.
 
-    ``encoder`` is ``"convlstm"`` (paper: ConvBiLSTM, kernel 3) or ``"lstm"``.
+    ``encoder`` is ``"convlstm"`` (paper: ConvBiLSTM, kernel 3) or ``"lstm"``. ``decoder_input``
+    ``"sequence"`` gives the decoder the encoder's output at each step instead of the repeated final state.
     """
 
     def __init__(self, width: int, steps: int, *, encoder: str, encoder_sizes: list[int], encoder_bidirectional: bool,
                  decoder_sizes: list[int], decoder_bidirectional: bool, encoder_dropout: float, decoder_dropout: float,
-                 kernel: int = 3):
+                 kernel: int = 3, decoder_input: str = "repeat"):
         super().__init__()
         self.steps = steps
+        self.decoder_input = decoder_input
         self.encoder_kind = encoder
         if encoder == "convlstm":
             d = 2 if encoder_bidirectional else 1
@@ -120,20 +122,20 @@ class EncoderDecoder(nn.Module):
         self.dec = LSTMStack(code, decoder_sizes, bidirectional=decoder_bidirectional, dropout=decoder_dropout)
         self.fc = nn.Linear(self.dec.out_features + 2, width)
 
-    def encode(self, x: torch.Tensor) -> torch.Tensor:
+    def encode(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The encoder's output at each step ``(B, T, code)`` and its final state ``(B, code)``."""
         b, t, _, s = x.shape
         if self.encoder_kind == "convlstm":
             for layer in self.enc:
                 x, last = layer(x)
                 x = self.enc_drop(x)
-            return self.enc_drop(last).reshape(b, -1)
-        _, code = self.enc(x.reshape(b, t, 2 * s))
-        return code
+            return x.reshape(b, t, -1), self.enc_drop(last).reshape(b, -1)
+        return self.enc(x.reshape(b, t, 2 * s))
 
     def forward(self, x: torch.Tensor, vel: torch.Tensor) -> torch.Tensor:
         b, t = x.shape[:2]
-        code = self.encode(x)
-        h, _ = self.dec(code[:, None, :].expand(b, t, code.shape[-1]))
+        steps, code = self.encode(x)
+        h, _ = self.dec(steps if self.decoder_input == "sequence" else code[:, None, :].expand(b, t, code.shape[-1]))
         return self.fc(torch.cat([h, vel[:, None, :].expand(b, t, 2)], dim=-1))
 
 
@@ -156,6 +158,7 @@ def build_network(arch: str, model: dict, *, width: int, steps: int) -> nn.Modul
             encoder_bidirectional=encoder[1], decoder_sizes=list(model["decoder_sizes"]),
             decoder_bidirectional=encoder[2], encoder_dropout=model["encoder_dropout"],
             decoder_dropout=model["decoder_dropout"], kernel=model.get("kernel", 3),
+            decoder_input=model.get("decoder_input", "repeat"),
         )
     nn.init.zeros_(net.fc.weight)
     nn.init.zeros_(net.fc.bias)

@@ -141,6 +141,7 @@ def test_no_weights_for_the_dataset_names_the_command(syn_dataset):
     ({"interpolator": "lstm", "dataset": "x", "model": {"hidden": 3}}, "model"),
     ({"interpolator": "lstm", "dataset": "x", "training": {"epochs": 0}}, "training.epochs"),
     ({"interpolator": "convbilstm", "dataset": "x", "model": {"kernel": 4}}, "model.kernel"),
+    ({"interpolator": "convbilstm", "dataset": "x", "model": {"decoder_input": "sideways"}}, "model.decoder_input"),
 ])
 def test_bad_config_names_file_and_key(tmp_path, bad, key):
     import yaml
