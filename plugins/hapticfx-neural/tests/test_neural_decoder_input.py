@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from neural_testkit import TINY
+from neural_testkit import TINY, TINY_BY_ARCH
 
 from hapticfx_neural import checkpoint
 from hapticfx_neural.config import MODEL_DEFAULTS
@@ -42,11 +42,14 @@ def test_reading_the_encoders_steps_the_decoder_learns_a_correction_placed_in_ti
 
 
 @pytest.mark.parametrize("decoder_input", ["repeat", "sequence"])
-def test_both_decoders_start_at_the_blend(decoder_input):
+@pytest.mark.parametrize("arch", ["convbilstm", "convlstm-ed", "bilstm-ed", "lstm-sae"])
+def test_every_encoder_decoder_takes_either_and_starts_at_the_blend(arch, decoder_input):
     import torch
 
     from hapticfx_neural.training import make_network
 
-    net = make_network("convbilstm", {**MODEL_DEFAULTS["convbilstm"], **TINY, "decoder_input": decoder_input}, 100)
-    out = net(torch.randn(3, TINY["steps"], 2, 10), torch.randn(3, 2))
-    assert out.shape == (3, TINY["steps"], 10) and torch.count_nonzero(out) == 0  # zero correction: the blend
+    tiny = TINY_BY_ARCH[arch]
+    net = make_network(arch, {**MODEL_DEFAULTS[arch], **tiny, "decoder_input": decoder_input}, 100)
+    out = net(torch.randn(3, tiny["steps"], 2, 100 // tiny["steps"]), torch.randn(3, 2))
+    assert out.shape == (3, tiny["steps"], 100 // tiny["steps"])
+    assert torch.count_nonzero(out) == 0  # zero correction: the blend
