@@ -22,9 +22,10 @@ with velocity by its own law (a heavy object bounces late, a light one not at
 all; a helmet's ringing stays where it is, and a warp that pairs its cycles one
 period apart is worse than none), so one penalty for a whole dataset is wrong
 for some of its objects; and the mean of a velocity's drops is a far less noisy
-yardstick than its one representative drop. An object with fewer than :data:`MIN_FOLDS` velocities to leave out (and
-an object the training data gives no targets of: a new object) takes the
-penalty that scores best over every object's folds.
+yardstick than its one representative drop. An object with fewer than
+:data:`MIN_FOLDS` velocities to leave out (and an object the training data gives
+no targets of: a new object) takes the penalty that scores best over every
+object's folds.
 
 Then, chosen the same way for each object: whether its centres are **shrunk**
 first (:func:`shrunk_centres`). With few drops a centre is noisy, and the

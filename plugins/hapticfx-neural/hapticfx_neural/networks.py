@@ -134,8 +134,8 @@ class EncoderDecoder(nn.Module):
 
     def forward(self, x: torch.Tensor, vel: torch.Tensor) -> torch.Tensor:
         b, t = x.shape[:2]
-        steps, code = self.encode(x)
-        h, _ = self.dec(steps if self.decoder_input == "sequence" else code[:, None, :].expand(b, t, code.shape[-1]))
+        outputs, code = self.encode(x)
+        h, _ = self.dec(outputs if self.decoder_input == "sequence" else code[:, None, :].expand(b, t, code.shape[-1]))
         return self.fc(torch.cat([h, vel[:, None, :].expand(b, t, 2)], dim=-1))
 
 
@@ -158,7 +158,7 @@ def build_network(arch: str, model: dict, *, width: int, steps: int) -> nn.Modul
             encoder_bidirectional=encoder[1], decoder_sizes=list(model["decoder_sizes"]),
             decoder_bidirectional=encoder[2], encoder_dropout=model["encoder_dropout"],
             decoder_dropout=model["decoder_dropout"], kernel=model.get("kernel", 3),
-            decoder_input=model.get("decoder_input", "repeat"),
+            decoder_input=model["decoder_input"],
         )
     nn.init.zeros_(net.fc.weight)
     nn.init.zeros_(net.fc.bias)
