@@ -38,7 +38,7 @@ DECODER_INPUTS = ("repeat", "sequence")
 ADDED_MODEL_KEYS = {"decoder_input": "repeat"}
 TRAINING_DEFAULTS = {
     "epochs": 100, "batch_size": 8, "learning_rate": 1e-4, "beta1": 0.9, "val_fraction": 0.2,
-    "patience": 30, "seed": 0, "threads": 1, "augment": True,
+    "patience": 30, "seed": 0, "threads": 1, "augment": True, "input_drops": None,
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
             "gaps", "trim", "init", "model", "training", "out")
@@ -150,6 +150,10 @@ def _check_training(t: dict, source: str) -> None:
         v = t[k]
         if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):
             raise EffectError(f"expected an integer >= {lo}", source=source, key=f"training.{k}")
+    k = t["input_drops"]
+    if k is not None and not (isinstance(k, int) and not isinstance(k, bool) and k >= 1):
+        raise EffectError("expected an integer >= 1 (the most drops a neighbour's input centre is drawn from; "
+                          "null: every drop)", source=source, key="training.input_drops")
     if not isinstance(t["augment"], bool):
         raise EffectError("expected true or false", source=source, key="training.augment")
     for k, lo, hi in (("learning_rate", 0, 1), ("beta1", 0, 1), ("val_fraction", 0, 0.9)):

@@ -12,7 +12,11 @@ What the network sees and predicts:
 - **Inputs**: the centres of the two neighbours. In training, each epoch draws each
   neighbour's centre from a random subset of its drops (at least half of them), so the
   network sees the centres' own sampling noise and never the same input twice; at inference
-  the centre is that of every drop.
+  the centre is that of every drop. With ``input_drops`` K (pre-training on a rig recorded
+  many more times than a user records), a neighbour's centre is that of K drops or fewer
+  (a random half or more of K in training, the first K for validation) while the target
+  stays the centre of every drop: the network learns from clean targets what it will be
+  given from K recorded drops.
 - **Target**: the centre of the target velocity's drops. With ``trim: 0`` its RMSE differs
   from the mean RMSE over every drop by a constant, so it *is* a loss over every drop,
   computed once.
@@ -85,7 +89,8 @@ def stack_triples(rows: list[tuple[Profile, Profile, float, np.ndarray | None]],
 @dataclass
 class DropTriples:
     """Triples over pools of drops: ``pools[k]`` is ``(D_k, N)``; ``lo, hi, tgt`` index pools per triple;
-    ``trim``: the fraction of drops cut at each end for a pool's centre (0: the mean)."""
+    ``trim``: the fraction of drops cut at each end for a pool's centre (0: the mean); ``input_drops``: the
+    most drops an input centre is drawn from (None: every drop of its pool)."""
 
     pools: list[np.ndarray]
     lo: np.ndarray
@@ -96,6 +101,7 @@ class DropTriples:
     v: np.ndarray
     objects: list[str]
     trim: float = 0.0
+    input_drops: int | None = None
 
     def __len__(self) -> int:
         return int(self.v.shape[0])
@@ -107,17 +113,20 @@ class DropTriples:
     def subset(self, idx) -> "DropTriples":
         idx = np.asarray(idx, dtype=int)
         return DropTriples(self.pools, self.lo[idx], self.hi[idx], self.tgt[idx], self.v_lo[idx], self.v_hi[idx],
-                           self.v[idx], [self.objects[i] for i in idx], self.trim)
+                           self.v[idx], [self.objects[i] for i in idx], self.trim, self.input_drops)
 
     def centres(self, rng: np.random.Generator | None = None) -> Triples:
-        """Triples whose inputs are the pools' centres; with ``rng``, each drawn from a random half or more."""
+        """Triples whose inputs are the pools' centres; with ``rng``, each drawn from a random half or more of
+        its drops (of ``input_drops`` of them where set; without ``rng``, the first ``input_drops``)."""
         full = [pool_centre(p, self.trim) for p in self.pools]
+        given = full if self.input_drops is None else [pool_centre(p[:self.input_drops], self.trim) for p in self.pools]
 
         def centre(k: int) -> np.ndarray:
             pool = self.pools[k]
-            if rng is None or len(pool) < 2:
-                return full[k]
-            size = int(rng.integers((len(pool) + 1) // 2, len(pool) + 1))
+            n = len(pool) if self.input_drops is None else min(len(pool), self.input_drops)
+            if rng is None or n < 2:
+                return given[k]
+            size = int(rng.integers((n + 1) // 2, n + 1))
             return pool_centre(pool[rng.choice(len(pool), size, replace=False)], self.trim)
 
         lc = np.stack([centre(k) for k in self.lo])

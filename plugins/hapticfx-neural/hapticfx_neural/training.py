@@ -11,6 +11,7 @@ keeps its velocity normalisation.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import math
 import time
@@ -81,6 +82,7 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
     """
     if len(data) == 0:
         raise DatasetError("no training triples: a target needs a recorded velocity on each side")
+    data = dataclasses.replace(data, input_drops=training.get("input_drops"))
     torch.set_num_threads(int(training["threads"]))
     seed = int(training["seed"])
     torch.manual_seed(seed)

@@ -33,6 +33,59 @@ def test_triples_take_every_gap_and_the_target_is_the_drop_mean():
     assert all(any(np.allclose(d, s) for s in subsets) for d in drawn)  # half of the drops or more
 
 
+def test_input_drops_limits_the_inputs_centres_and_leaves_the_target_the_centre_of_every_drop():
+    """Pre-training on a rig recorded 60 times: the inputs are what K recorded drops give, the target is clean."""
+    import dataclasses
+    import itertools
+
+    rng = np.random.default_rng(1)
+    v = np.array([1.0, 1.1, 1.2])
+    pools = [rng.standard_normal((12, 20)) for _ in v]
+    t = dataclasses.replace(drop_triples([("a", v, pools, [1.1])], gaps=[1]), input_drops=4)
+    fixed = t.centres()
+    assert np.allclose(fixed.lower_c[0], pools[0][:4].mean(0)) and np.allclose(fixed.upper_c[0], pools[2][:4].mean(0))
+    assert np.allclose(fixed.target[0], pools[1].mean(0))
+    drawn = [t.centres(np.random.default_rng(s)) for s in range(40)]
+    subsets = [pools[0][list(c)].mean(0) for k in (2, 3, 4) for c in itertools.combinations(range(12), k)]
+    assert all(any(np.allclose(d.lower_c[0], s) for s in subsets) for d in drawn)  # 2 to 4 of the 12 drops
+    assert len({d.lower_c[0].tobytes() for d in drawn}) > 1
+    assert all(np.allclose(d.target[0], pools[1].mean(0)) for d in drawn)
+    assert t.subset([0]).input_drops == 4
+
+
+def test_training_validates_on_what_input_drops_recorded_drops_give():
+    from hapticfx_neural.config import MODEL_DEFAULTS, TRAINING_DEFAULTS
+    from hapticfx_neural.training import train_network
+
+    rng = np.random.default_rng(4)
+    v = np.round(np.linspace(1.0, 2.0, 11), 6)
+    pools = [np.sin(np.arange(100) * x / 7)[None] + 0.3 * rng.standard_normal((8, 100)) for x in v]
+    data = drop_triples([("a", v, pools, list(v[1:-1]))], gaps=[1])
+    model = {**MODEL_DEFAULTS["convbilstm"], **TINY}
+
+    def start(k):
+        training = {**TRAINING_DEFAULTS, "epochs": 1, "input_drops": k}
+        _, meta = train_network("convbilstm", model, training, data, dataset_meta={"name": "a"}, progress=False)
+        return meta["training"]["start_val_rmse_normalised"], meta["training"]["input_drops"]
+
+    every, one, all_eight = start(None), start(1), start(8)
+    assert every[0] == all_eight[0] and one[1] == 1
+    assert abs(one[0] - every[0]) > 0.1 * every[0]  # the first drop alone as each input: another start
+
+
+def test_input_drops_must_be_a_positive_integer_or_null(tmp_path):
+    for bad in (0, -3, 2.5, True, "ten"):
+        path = tmp_path / "c.yaml"
+        path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "builtin:helmet-drops",
+                                        "training": {"input_drops": bad}}))
+        with pytest.raises(EffectError) as err:
+            load_config(path)
+        assert "training.input_drops" in str(err.value) and str(path) in str(err.value)
+    path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "builtin:helmet-drops",
+                                    "training": {"input_drops": None}}))
+    assert load_config(path).training["input_drops"] is None
+
+
 def test_trimmed_centres_are_the_cores_trimmed_means_for_inputs_draws_and_target():
     from hapticfx.interpolators.ensemble import centres
 
