@@ -218,6 +218,23 @@ def test_noise_budget_tells_noise_from_a_learnable_change():
     assert noise / obs < 0.5
 
 
+def test_noise_budget_counts_the_inputs_noise_from_input_drops_drops():
+    """60 drops per velocity, inputs from 10: the neighbours' means carry 10 drops' noise, the target 60's."""
+    import dataclasses
+
+    from hapticfx_neural.bench.learnable import noise_budget
+
+    rng = np.random.default_rng(2)
+    v = np.linspace(1.0, 2.0, 11)
+    pools = [np.sin(np.linspace(0, 6, 50)) + rng.standard_normal((60, 50)) * 0.1 for _ in v]
+    data = drop_triples([("a", v, pools, list(v[1:-1]))], gaps=[1])
+    every, ten = noise_budget(data), noise_budget(dataclasses.replace(data, input_drops=10))
+    # at w = 1/2: (1/4 + 1/4) s^2 / D + s^2 / 60, so 0.5/10 + 1/60 against 0.5/60 + 1/60 (s^2 = 0.01)
+    assert ten[1] == pytest.approx(0.01 * (0.05 + 1 / 60), rel=0.1)
+    assert every[1] == pytest.approx(0.01 * (0.5 / 60 + 1 / 60), rel=0.1)
+    assert 0.7 < ten[1] / ten[0] < 1.3
+
+
 def test_training_tells_while_it_builds_the_velocity_table(tmp_path, drop_dataset, capsys):
     """The table after training took 72 of a 93 s run on a terminal without a word: it is told object by object."""
     train_from_config(load_config(tiny_config(tmp_path, drop_dataset, epochs=1)), progress=True)

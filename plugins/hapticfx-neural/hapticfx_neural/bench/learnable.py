@@ -6,7 +6,8 @@ Two measures:
 - **Noise budget**: for every triple, the mean square of (blend of the neighbours' drop means - the target's
   drop mean) against what the sampling noise of those three means alone gives
   (``(1-w)^2 var_L / D_L + w^2 var_U / D_U + var_T / D_T``, per sample). A ratio near 1 means the error is
-  noise that no function of the inputs removes.
+  noise that no function of the inputs removes. With the configuration's ``training.input_drops`` K, the
+  neighbours' means are those of their first K drops (``D_L``, ``D_U`` at most K), as training gives them.
 - **Linear learner**: ridge regression from the network's own inputs (the two normalised centres and their
   products with ``w``) to the normalised correction, fitted on the training split and scored on the
   validation split that training uses (whole target pools held out), for a few penalties. If a linear map
@@ -31,7 +32,8 @@ def noise_budget(data) -> tuple[float, float]:
     obs, noise = [], []
     for lo, hi, tg, vl, vh, v in zip(data.lo, data.hi, data.tgt, data.v_lo, data.v_hi, data.v):
         w = (v - vl) / (vh - vl)
-        pl, pu, pt = data.pools[lo], data.pools[hi], data.pools[tg]
+        k = data.input_drops
+        pl, pu, pt = data.pools[lo][:k], data.pools[hi][:k], data.pools[tg]
         if min(len(pl), len(pu), len(pt)) < 2:
             continue
         blend = (1 - w) * pl.mean(0) + w * pu.mean(0)
@@ -80,6 +82,8 @@ def learnable(
                                               "starts."),
 ):
     """What is left to learn after the blend of the neighbours' drop centres: noise budget and a linear learner."""
+    import dataclasses
+
     from hapticfx.errors import EffectError
 
     from ..config import MAX_GAP, config_from_mapping, load_config
@@ -97,10 +101,12 @@ def learnable(
     if trim is not None:
         cfg = config_from_mapping({**cfg.as_dict(), "trim": trim}, source=f"{cfg.source} with --trim")
     _, data, meta = config_triples(cfg)
+    data = dataclasses.replace(data, input_drops=cfg.training["input_drops"])
     obs, noise = noise_budget(data)
     ridge = ridge_scores(data, val_fraction=cfg.training["val_fraction"], seed=cfg.training["seed"],
                          steps=cfg.model["steps"])
-    typer.echo(f"{meta['name']}: {len(data)} triples, gaps {cfg.gaps}, trim {cfg.trim:g}")
+    inputs = "" if data.input_drops is None else f", inputs from the first {data.input_drops} drops"
+    typer.echo(f"{meta['name']}: {len(data)} triples, gaps {cfg.gaps}, trim {cfg.trim:g}{inputs}")
     rows = [["blend of drop means vs target drop mean: mean square (g^2)", f"{obs:.5f}"],
             ["the same from the sampling noise of the three means alone", f"{noise:.5f}"],
             ["share of the mean square that is sampling noise", f"{min(noise / obs, 1.0):.1%}"]]
