@@ -14,7 +14,7 @@ What the network sees and predicts:
   network sees the centres' own sampling noise and never the same input twice; at inference
   the centre is that of every drop. With ``input_drops`` K (pre-training on a rig recorded
   many more times than a user records), a neighbour's centre is that of K drops or fewer
-  (a random half or more of K in training, the first K for validation) while the target
+  (K/2 to K drawn at random from all of them in training, the first K for validation) while the target
   stays the centre of every drop: the network learns from clean targets what it will be
   given from K recorded drops.
 - **Target**: the centre of the target velocity's drops. With ``trim: 0`` its RMSE differs
@@ -116,8 +116,9 @@ class DropTriples:
                            self.v[idx], [self.objects[i] for i in idx], self.trim, self.input_drops)
 
     def centres(self, rng: np.random.Generator | None = None) -> Triples:
-        """Triples whose inputs are the pools' centres; with ``rng``, each drawn from a random half or more of
-        its drops (of ``input_drops`` of them where set; without ``rng``, the first ``input_drops``)."""
+        """Triples whose inputs are the pools' centres; with ``rng``, each that of a random subset of its drops, of
+        half to all of them (of ``input_drops`` where set); without ``rng``, of every drop (the first
+        ``input_drops`` where set)."""
         full = [pool_centre(p, self.trim) for p in self.pools]
         given = full if self.input_drops is None else [pool_centre(p[:self.input_drops], self.trim) for p in self.pools]
 
