@@ -30,9 +30,9 @@ PENALTIES = (1.0, 10.0, 100.0, 1000.0)
 def noise_budget(data) -> tuple[float, float]:
     """Observed and noise-only mean square of the blend of centres against the target's drop mean."""
     obs, noise = [], []
+    k = data.input_drops
     for lo, hi, tg, vl, vh, v in zip(data.lo, data.hi, data.tgt, data.v_lo, data.v_hi, data.v):
         w = (v - vl) / (vh - vl)
-        k = data.input_drops
         pl, pu, pt = data.pools[lo][:k], data.pools[hi][:k], data.pools[tg]
         if min(len(pl), len(pu), len(pt)) < 2:
             continue
