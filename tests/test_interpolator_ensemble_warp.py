@@ -8,8 +8,8 @@ import pytest
 from hapticfx.data.bank import ProfileBank
 from hapticfx.errors import SignalError
 from hapticfx.interfaces import Profile, TrainingData
-from hapticfx.interpolators.ensemble_warp import (TOLERANCE, EnsembleWarpInterpolator, Fit, jackknife_noise,
-                                                 shrunk_centres, tabulate)
+from hapticfx.interpolators.ensemble_warp import (SMOOTHING, TOLERANCE, EnsembleWarpInterpolator, Fit,
+                                                 jackknife_noise, shrunk_centres, smoothed_centres, tabulate)
 from hapticfx.interpolators.warp import Morph, displacement, warp_path
 
 N = 200
@@ -123,10 +123,42 @@ def test_shrinking_is_chosen_where_noise_dominates_and_brings_the_centres_nearer
     v, drops = data.drops["brick"]
     raw, truth = drops.mean(axis=1), _truth(0.0, v)
     err = lambda c: np.sqrt(np.mean((c[1:-1] - truth[1:-1]) ** 2))  # noqa: E731
-    assert err(fit.centres["brick"]) < 0.8 * err(raw)
-    assert np.allclose(fit.centres["brick"][[0, -1]], raw[[0, -1]], rtol=0, atol=1e-12)  # the ends keep their centres
+    shrunk = shrunk_centres(v, raw, jackknife_noise(drops, fit.trim), fit.penalties["brick"])
+    assert err(shrunk) < 0.8 * err(raw)
+    assert np.allclose(shrunk[[0, -1]], raw[[0, -1]], rtol=0, atol=1e-12)  # the ends keep their centres
     # a clean object whose bounce moves: the neighbours' prediction misses by more than the noise, no shrinking
     assert not Fit(_data(12.0, noise=0.003)).shrink["brick"]
+
+
+def test_smoothing_across_velocity_is_chosen_for_a_noisy_still_object_and_never_for_a_warped_one():
+    # the same 3 noisy drops of a profile linear in velocity: a smooth curve through every centre pools all of
+    # them, nearer the noise-free profiles (float64) than shrinking toward two neighbours
+    data = _data(0.0, velocities=tuple(np.linspace(2.0, 5.0, 9)), drops=3, noise=0.1)
+    fit = Fit(data)
+    assert fit.smooth["brick"] in SMOOTHING and fit.summary()["smoothed_objects"] == 1
+    v, drops = data.drops["brick"]
+    truth = _truth(0.0, v)
+    shrunk = shrunk_centres(v, drops.mean(axis=1), jackknife_noise(drops, fit.trim), fit.penalties["brick"])
+    err = lambda c: np.sqrt(np.mean((c - truth) ** 2))  # noqa: E731
+    assert err(fit.centres["brick"]) < 0.8 * err(shrunk)
+    assert fit.smooth_scores["brick"][fit.smooth["brick"]] < fit.smooth_scores["brick"][None]
+    moving = Fit(_two_objects())  # the bouncing object is warped: a smoother in raw time would blur its bounce
+    assert np.isfinite(moving.penalties["moving"]) and moving.smooth["moving"] is None
+    assert "moving" not in moving.smooth_scores
+
+
+def test_the_smoother_keeps_a_profile_linear_in_velocity_and_tends_to_the_straight_line():
+    rng = np.random.default_rng(5)
+    v = np.array([2.0, 2.3, 3.1, 3.2, 4.4, 5.0])  # irregular spacing
+    a, b = rng.standard_normal(N), rng.standard_normal(N)
+    linear = a + v[:, None] * b
+    for strength in (*SMOOTHING, 1.0):
+        assert np.allclose(smoothed_centres(v, linear, strength), linear, rtol=0, atol=1e-9)
+    noisy = linear + rng.standard_normal(linear.shape)
+    line = np.polynomial.polynomial.polyval(v, np.polynomial.polynomial.polyfit(v, noisy, 1)).T  # least squares
+    assert np.allclose(smoothed_centres(v, noisy, 1e6), line, rtol=0, atol=1e-4)
+    assert np.array_equal(smoothed_centres(v, noisy, 0.0), noisy)
+    assert np.array_equal(smoothed_centres(v[:2], noisy[:2], 1e-2), noisy[:2])  # fewer than three: as they are
 
 
 def test_silent_drops_fit_and_serve_silence():
@@ -262,6 +294,7 @@ def test_a_dataset_carries_its_table_and_an_effect_without_one_fits_it_when_it_l
     assert said["served_from"]["table"] == str(table_path(ds.path, "max-min"))
     assert said["warp penalty"]["wood-beam"] in ("none", 0.01, 0.03)
     assert said["centres shrunk"]["wood-beam"] in ("yes", "no")
+    assert said["centres smoothed"]["wood-beam"] in ("no", *SMOOTHING)
     table_path(ds.path, "max-min").unlink()
     fitted = model()
     assert fitted.describe()["served_from"]["interpolator"] == "ensemble-warp"
@@ -287,4 +320,20 @@ def test_the_built_in_sets_shipped_table_is_what_a_fit_of_its_drops_chooses_now(
     ds = open_dataset("builtin:helmet-drops")
     shipped = VelocityTable.load(table_path(ds.path, reducer)).meta["source"]
     summary = Fit(training_data(ds, reducer)).summary()
-    assert shipped == {"trim": summary["trim"], "penalty": summary["penalty"], "shrink": summary["shrink"]}
+    assert shipped == {"trim": summary["trim"], "penalty": summary["penalty"], "shrink": summary["shrink"],
+                       "smooth": summary["smooth"]}
+
+
+def test_a_table_written_before_smoothing_was_offered_still_serves_and_describes_itself():
+    from hapticfx.interpolators.fitted import describe
+
+    data = _data(12.0)
+    table = tabulate(Fit(data))
+    del table.meta["source"]["smooth"]  # as a dataset written by an older hapticfx carries it
+    assert describe(table).endswith("0 smoothed")
+    warp = EnsembleWarpInterpolator()
+    warp.table = table
+    assert warp.describe()["centres smoothed"] == {}
+    lo, hi = data.banks["brick"][1], data.banks["brick"][2]
+    table.attach(data.banks["brick"], rebuild="(test)")
+    assert np.all(np.isfinite(table.lookup(lo, hi, 2.7)))

@@ -36,6 +36,14 @@ drops), an empirical-Bayes smoother across velocity that pools the drops of
 four recorded velocities into each interval instead of two. Where the profile
 changes faster than the noise (many drops, sparse velocities) it is left out.
 
+Last, for each object the warp left out (one whose events stay put as velocity
+changes): whether its centres are instead **smoothed** across every recorded
+velocity (:func:`smoothed_centres`, a Whittaker smoother) and how strongly, from
+:data:`SMOOTHING`. Shrinking pools the drops of four velocities into an interval;
+a smooth curve through every centre pools them all, at the cost of bending where
+the profile changes fast, which the same leave-one-out choice weighs. It is not
+offered where a warp was chosen: a smoother in raw time blurs events that move.
+
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
 the method by at most :data:`TOLERANCE` of the neighbours' larger peak; with no
@@ -122,6 +130,29 @@ def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, pen
     return out
 
 
+SMOOTHING = (1e-5, 1e-4, 1e-3, 1e-2)  # Whittaker penalties, velocity scaled to [0, 1]
+
+
+def smoothed_centres(velocities: np.ndarray, c: np.ndarray, strength: float) -> np.ndarray:
+    """The centres ``c`` ``(V, N)`` replaced by the smooth curve through them across velocity (Whittaker).
+
+    Per sample, ``x`` minimises ``sum_k (x_k - c_k)^2 + strength sum_k (x''_k)^2``, ``x''`` the second divided
+    difference over velocity scaled to [0, 1] (irregular spacing allowed). Centres that change linearly with
+    velocity come back unchanged; a large ``strength`` tends to the straight line through them; fewer than three
+    velocities are left as they are.
+    """
+    v = np.asarray(velocities, dtype=np.float64)
+    out = np.array(c, dtype=np.float64, copy=True)
+    n = len(v)
+    if n < 3:
+        return out
+    h = np.diff((v - v[0]) / (v[-1] - v[0]))
+    rows, s = np.arange(n - 2), 2.0 / (h[:-1] + h[1:])
+    d2 = np.zeros((n - 2, n))
+    d2[rows, rows], d2[rows, rows + 1], d2[rows, rows + 2] = s / h[:-1], -s * (1 / h[:-1] + 1 / h[1:]), s / h[1:]
+    return np.linalg.solve(np.eye(n) + strength * d2.T @ d2, out)
+
+
 def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, paths: dict) -> np.ndarray:
     """The profile at ``v`` from the neighbours ``lo`` and ``hi``: representatives ``reps``, centres ``c``."""
     w = float((v - velocities[lo]) / (velocities[hi] - velocities[lo]))
@@ -177,7 +208,8 @@ def penalty_folds(objects: dict[str, _Object], paths: dict) -> dict[str, dict[fl
 
 def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
                   folds: dict[str, dict[float, list[float]]], paths: dict):
-    """Whether each object's centres are shrunk (:func:`shrunk_centres`), the pooled choice, and the scores.
+    """Whether each object's centres are shrunk (:func:`shrunk_centres`), the pooled choice, the mean scores and
+    every fold's scores (what :func:`choose_smoothing` compares with).
 
     As the penalty is chosen, with the object's penalty: each training target left out is predicted from its
     neighbours' centres as they are (the penalty's own folds) and shrunk among the velocities that remain.
@@ -192,7 +224,32 @@ def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
             shrunk.append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], p, paths),
                                 o.means[i]))
         scores[obj] = {False: folds[obj][p], True: shrunk}
-    return _choose(scores, SHRINK, False)
+    return (*_choose(scores, SHRINK, False), scores)
+
+
+def choose_smoothing(objects: dict[str, _Object], penalties: dict[str, float], shrink: dict[str, bool],
+                     shrink_folds: dict[str, dict[bool, list[float]]], paths: dict):
+    """Whether each object the warp left out has its centres smoothed (:func:`smoothed_centres`) and how strongly
+    (``None``: not; the centres as :func:`choose_shrink` left them), the pooled choice, and the scores.
+
+    Each training target left out is predicted from the smoothed centres of the velocities that remain, as
+    :func:`choose_shrink` scores; a warped object is not smoothed.
+    """
+    scores = {}
+    for obj, o in objects.items():
+        if np.isfinite(penalties[obj]):
+            continue
+        own = {None: shrink_folds[obj][shrink[obj]]}
+        for strength in SMOOTHING:
+            own[strength] = []
+            for i in o.scored:
+                keep = np.arange(len(o.velocities)) != i
+                c = smoothed_centres(o.velocities[keep], o.centres[keep], strength)
+                own[strength].append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i],
+                                                    penalties[obj], paths), o.means[i]))
+        scores[obj] = own
+    chosen, pooled, means = _choose(scores, (None, *SMOOTHING), None)
+    return {obj: chosen.get(obj) for obj in objects}, pooled, means
 
 
 class Fit:
@@ -214,11 +271,21 @@ class Fit:
         objects = _objects(data, self.trim)
         folds = penalty_folds(objects, paths)
         self.penalties, self.pooled_penalty, self.penalty_scores = _choose(folds, PENALTIES, float("inf"))
-        self.shrink, self.pooled_shrink, self.shrink_scores = choose_shrink(objects, self.penalties, folds, paths)
-        self.centres = {obj: shrunk_centres(o.velocities, o.centres, o.noise, self.penalties[obj], paths)
-                        if self.shrink[obj] else o.centres for obj, o in objects.items()}
+        self.shrink, self.pooled_shrink, self.shrink_scores, shrink_folds = choose_shrink(objects, self.penalties,
+                                                                                          folds, paths)
+        self.smooth, self.pooled_smooth, self.smooth_scores = choose_smoothing(objects, self.penalties, self.shrink,
+                                                                               shrink_folds, paths)
+        self.centres = {obj: self._centres(obj, o, paths) for obj, o in objects.items()}
         self._morphs: dict[tuple[str, int], Morph] = {}
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
+
+    def _centres(self, obj: str, o: _Object, paths: dict) -> np.ndarray:
+        """``obj``'s centres as its choices pool them: smoothed, shrunk or as they are."""
+        if self.smooth[obj] is not None:
+            return smoothed_centres(o.velocities, o.centres, self.smooth[obj])
+        if self.shrink[obj]:
+            return shrunk_centres(o.velocities, o.centres, o.noise, self.penalties[obj], paths)
+        return o.centres
 
     def morph(self, obj: str, i: int) -> Morph:
         """The morph from the centre at recorded velocity ``i`` of ``obj`` to the one at ``i + 1``."""
@@ -251,11 +318,15 @@ class Fit:
                 "warped_objects": sum(bool(np.isfinite(p)) for p in self.penalties.values()),
                 "shrink": dict(self.shrink), "pooled_shrink": self.pooled_shrink,
                 "shrunk_objects": sum(self.shrink.values()),
+                "smooth": dict(self.smooth), "pooled_smooth": self.pooled_smooth,
+                "smoothed_objects": sum(s is not None for s in self.smooth.values()),
                 "loo_rmse": self.trim_scores,
                 "penalty_loo_rmse": {obj: {("inf" if not np.isfinite(p) else str(p)): x for p, x in own.items()}
                                      for obj, own in self.penalty_scores.items()},
                 "shrink_loo_rmse": {obj: {str(k).lower(): x for k, x in own.items()}
-                                    for obj, own in self.shrink_scores.items()}}
+                                    for obj, own in self.shrink_scores.items()},
+                "smooth_loo_rmse": {obj: {("none" if k is None else str(k)): x for k, x in own.items()}
+                                    for obj, own in self.smooth_scores.items()}}
 
 
 def table_path(dataset_path: Path, reducer: str) -> Path:
@@ -270,7 +341,8 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
                          for k in range(len(v))])
 
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
-                        source={"trim": fit.trim, "penalty": fit.summary()["penalty"], "shrink": dict(fit.shrink)},
+                        source={"trim": fit.trim, "penalty": fit.summary()["penalty"], "shrink": dict(fit.shrink),
+                                "smooth": dict(fit.smooth)},
                         dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress)
     table.meta["fit"] = fit.summary()
     return table
@@ -323,9 +395,11 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
         source = self.table.meta["source"]
         return {**super().describe(),
                 "warp penalty": {obj: "none" if p is None else p for obj, p in source["penalty"].items()},
-                "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()}}
+                "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()},
+                "centres smoothed": {obj: "no" if s is None else s  # none in a table written before smoothing
+                                     for obj, s in source.get("smooth", {}).items()}}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "fit_table", "jackknife_noise", "morph",
-           "penalty_folds", "shrunk_centres", "tabulate", "table_path", "MIN_FOLDS", "PENALTIES", "SHRINK",
-           "TOLERANCE"]
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "choose_smoothing", "fit_table", "jackknife_noise",
+           "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate", "table_path", "MIN_FOLDS",
+           "PENALTIES", "SHRINK", "SMOOTHING", "TOLERANCE"]

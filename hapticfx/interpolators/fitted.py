@@ -22,7 +22,9 @@ def describe(table) -> str:
         return f"trim {source['trim']}"
     warped = sum(p is not None for p in source["penalty"].values())
     shrunk = sum(bool(s) for s in source["shrink"].values())
-    return f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk"
+    smoothed = sum(s is not None for s in source.get("smooth", {}).values())  # none before smoothing was offered
+    return (f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk, "
+            f"{smoothed} smoothed")
 
 
 def save_tables(data: TrainingData, folder: Path, *, progress=None) -> list[Path]:
