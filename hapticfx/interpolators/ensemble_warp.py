@@ -206,6 +206,19 @@ def penalty_folds(objects: dict[str, _Object], paths: dict) -> dict[str, dict[fl
             for obj, o in objects.items()}
 
 
+def _left_out(o: _Object, penalty: float, paths: dict, pool) -> list[float]:
+    """Each of ``o``'s training targets left out and predicted from the centres of the velocities that remain, as
+    ``pool(velocities, centres, noise)`` pools them: the RMSE against the target's drop mean, per target."""
+    out = []
+    for i in o.scored:
+        keep = np.arange(len(o.velocities)) != i
+        c = pool(o.velocities[keep], o.centres[keep], o.noise[keep])
+        # in the kept arrays, i's neighbours are i - 1 and i
+        out.append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], penalty, paths),
+                         o.means[i]))
+    return out
+
+
 def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
                   folds: dict[str, dict[float, list[float]]], paths: dict):
     """Whether each object's centres are shrunk (:func:`shrunk_centres`), the pooled choice, the mean scores and
@@ -216,13 +229,8 @@ def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
     """
     scores = {}
     for obj, o in objects.items():
-        p, shrunk = penalties[obj], []
-        for i in o.scored:
-            keep = np.arange(len(o.velocities)) != i
-            c = shrunk_centres(o.velocities[keep], o.centres[keep], o.noise[keep], p, paths)
-            # in the kept arrays, i's neighbours are i - 1 and i
-            shrunk.append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], p, paths),
-                                o.means[i]))
+        p = penalties[obj]
+        shrunk = _left_out(o, p, paths, lambda v, c, noise: shrunk_centres(v, c, noise, p, paths))
         scores[obj] = {False: folds[obj][p], True: shrunk}
     return (*_choose(scores, SHRINK, False), scores)
 
@@ -239,15 +247,9 @@ def choose_smoothing(objects: dict[str, _Object], penalties: dict[str, float], s
     for obj, o in objects.items():
         if np.isfinite(penalties[obj]):
             continue
-        own = {None: shrink_folds[obj][shrink[obj]]}
-        for strength in SMOOTHING:
-            own[strength] = []
-            for i in o.scored:
-                keep = np.arange(len(o.velocities)) != i
-                c = smoothed_centres(o.velocities[keep], o.centres[keep], strength)
-                own[strength].append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i],
-                                                    penalties[obj], paths), o.means[i]))
-        scores[obj] = own
+        scores[obj] = {None: shrink_folds[obj][shrink[obj]],
+                       **{s: _left_out(o, penalties[obj], paths, lambda v, c, _, s=s: smoothed_centres(v, c, s))
+                          for s in SMOOTHING}}
     chosen, pooled, means = _choose(scores, (None, *SMOOTHING), None)
     return {obj: chosen.get(obj) for obj in objects}, pooled, means
 
