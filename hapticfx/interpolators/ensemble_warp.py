@@ -36,15 +36,13 @@ drops), an empirical-Bayes smoother across velocity that pools the drops of
 four recorded velocities into each interval instead of two. Where the profile
 changes faster than the noise (many drops, sparse velocities) it is left out.
 
-Last, for each object: whether its centres are instead **smoothed** across every
-recorded velocity (:func:`smoothed_centres`, a Whittaker smoother) and how
-strongly, from :data:`SMOOTHING`. Shrinking pools the drops of four velocities
-into an interval; a smooth curve through every centre pools them all, at the cost
-of bending where the profile changes fast, which the same leave-one-out choice
-weighs. A warped object is smoothed in each centre's own time: the other centres
-are read along the chain of alignments between neighbours first
-(:func:`hapticfx.interpolators.warp.registered`), since a smoother in raw time
-blurs the events that move.
+Last, for each object the warp left out (one whose events stay put as velocity
+changes): whether its centres are instead **smoothed** across every recorded
+velocity (:func:`smoothed_centres`, a Whittaker smoother) and how strongly, from
+:data:`SMOOTHING`. Shrinking pools the drops of four velocities into an interval;
+a smooth curve through every centre pools them all, at the cost of bending where
+the profile changes fast, which the same leave-one-out choice weighs. It is not
+offered where a warp was chosen: a smoother in raw time blurs events that move.
 
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
@@ -83,24 +81,17 @@ def morph(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float, paths: dict | None
     :mod:`hapticfx.interpolators.warp` (scipy's resampling and splines) is imported here, when a fit needs it:
     an effect served from its table never loads it.
     """
-    from .warp import Morph
+    from .warp import Morph, displacement, warp_path
 
     if not np.isfinite(penalty):
         return Morph(lo_c, hi_c, np.zeros_like(lo_c))
-    return Morph(lo_c, hi_c, _displacement(lo_c, hi_c, penalty, paths))
-
-
-def _displacement(lo_c: np.ndarray, hi_c: np.ndarray, penalty: float, paths: dict | None) -> np.ndarray:
-    """The alignment's displacement from ``lo_c`` to ``hi_c`` (found once per ``paths``)."""
-    from .warp import displacement, warp_path
-
     key = (lo_c.tobytes(), hi_c.tobytes(), penalty)
     d = None if paths is None else paths.get(key)
     if d is None:
         d = displacement(warp_path(lo_c, hi_c, penalty=penalty), len(lo_c))
         if paths is not None:
             paths[key] = d
-    return d
+    return Morph(lo_c, hi_c, d)
 
 
 MIN_FOLDS = 3  # left-out velocities an object needs to make its own choices
@@ -142,39 +133,24 @@ def shrunk_centres(velocities: np.ndarray, c: np.ndarray, noise: np.ndarray, pen
 SMOOTHING = (1e-5, 1e-4, 1e-3, 1e-2)  # Whittaker penalties, velocity scaled to [0, 1]
 
 
-def smoothed_centres(velocities: np.ndarray, c: np.ndarray, strength: float, penalty: float = float("inf"),
-                     paths: dict | None = None) -> np.ndarray:
+def smoothed_centres(velocities: np.ndarray, c: np.ndarray, strength: float) -> np.ndarray:
     """The centres ``c`` ``(V, N)`` replaced by the smooth curve through them across velocity (Whittaker).
 
     Per sample, ``x`` minimises ``sum_k (x_k - c_k)^2 + strength sum_k (x''_k)^2``, ``x''`` the second divided
     difference over velocity scaled to [0, 1] (irregular spacing allowed). Centres that change linearly with
     velocity come back unchanged; a large ``strength`` tends to the straight line through them; fewer than three
-    velocities are left as they are. With a finite warp ``penalty`` each centre is smoothed in its own time: the
-    others are first read at the instants that pair with its samples along the chain of alignments between
-    neighbouring centres (:func:`hapticfx.interpolators.warp.registered`), so that an event that moves with
-    velocity is pooled with itself, not blurred.
+    velocities are left as they are.
     """
     v = np.asarray(velocities, dtype=np.float64)
-    x = np.array(c, dtype=np.float64, copy=True)
+    out = np.array(c, dtype=np.float64, copy=True)
     n = len(v)
     if n < 3:
-        return x
+        return out
     h = np.diff((v - v[0]) / (v[-1] - v[0]))
     rows, s = np.arange(n - 2), 2.0 / (h[:-1] + h[1:])
     d2 = np.zeros((n - 2, n))
     d2[rows, rows], d2[rows, rows + 1], d2[rows, rows + 2] = s / h[:-1], -s * (1 / h[:-1] + 1 / h[1:]), s / h[1:]
-    weights = np.linalg.inv(np.eye(n) + strength * d2.T @ d2)  # row k: what each centre gives centre k
-    if not np.isfinite(penalty):
-        return weights @ x
-    from .warp import registered
-
-    key = ("registered", x.tobytes(), penalty)  # every strength smooths the same chain
-    chain = None if paths is None else paths.get(key)
-    if chain is None:
-        chain = registered(x, [_displacement(x[m], x[m + 1], penalty, paths) for m in range(n - 1)])
-        if paths is not None:
-            paths[key] = chain
-    return np.einsum("kj,kjn->kn", weights, chain)
+    return np.linalg.solve(np.eye(n) + strength * d2.T @ d2, out)
 
 
 def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, paths: dict) -> np.ndarray:
@@ -261,18 +237,18 @@ def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
 
 def choose_smoothing(objects: dict[str, _Object], penalties: dict[str, float], shrink: dict[str, bool],
                      shrink_folds: dict[str, dict[bool, list[float]]], paths: dict):
-    """Whether each object has its centres smoothed (:func:`smoothed_centres`, in their own time where the object
-    is warped) and how strongly (``None``: not; the centres as :func:`choose_shrink` left them), the pooled
-    choice, and the scores.
+    """Whether each object the warp left out has its centres smoothed (:func:`smoothed_centres`) and how strongly
+    (``None``: not; the centres as :func:`choose_shrink` left them), the pooled choice, and the scores.
 
     Each training target left out is predicted from the smoothed centres of the velocities that remain, as
-    :func:`choose_shrink` scores.
+    :func:`choose_shrink` scores; a warped object is not smoothed.
     """
     scores = {}
     for obj, o in objects.items():
-        p = penalties[obj]
+        if np.isfinite(penalties[obj]):
+            continue
         scores[obj] = {None: shrink_folds[obj][shrink[obj]],
-                       **{s: _left_out(o, p, paths, lambda v, c, _, s=s: smoothed_centres(v, c, s, p, paths))
+                       **{s: _left_out(o, penalties[obj], paths, lambda v, c, _, s=s: smoothed_centres(v, c, s))
                           for s in SMOOTHING}}
     chosen, pooled, means = _choose(scores, (None, *SMOOTHING), None)
     return {obj: chosen.get(obj) for obj in objects}, pooled, means
@@ -308,7 +284,7 @@ class Fit:
     def _centres(self, obj: str, o: _Object, paths: dict) -> np.ndarray:
         """``obj``'s centres as its choices pool them: smoothed, shrunk or as they are."""
         if self.smooth[obj] is not None:
-            return smoothed_centres(o.velocities, o.centres, self.smooth[obj], self.penalties[obj], paths)
+            return smoothed_centres(o.velocities, o.centres, self.smooth[obj])
         if self.shrink[obj]:
             return shrunk_centres(o.velocities, o.centres, o.noise, self.penalties[obj], paths)
         return o.centres

@@ -113,29 +113,4 @@ class Morph:
         return (1.0 - w) * self._a(s) + w * self._b(s + self._d(s))
 
 
-def registered(profiles: np.ndarray, displacements: list[np.ndarray]) -> np.ndarray:
-    """``profiles`` ``(V, N)`` each read on every one's time axis: ``(V, V, N)``, row ``k`` holding profile ``j``
-    at the instants that pair with profile ``k``'s samples, following the chain of alignments between neighbours
-    (``displacements[m]``: from profile ``m`` to ``m + 1``, :func:`displacement`); row ``k``, column ``k`` is
-    profile ``k``. Read between samples as :class:`Morph` reads (:func:`_between`)."""
-    x = np.asarray(profiles, dtype=np.float64)
-    v, n = x.shape
-    grid = np.arange(n, dtype=np.float64)
-    # instant of profile m + 1 that sample s of profile m pairs with: non-decreasing, kept on the grid
-    ahead = [np.maximum.accumulate(np.clip(grid + d, 0.0, n - 1.0)) for d in displacements]
-    readers = [_between(p) for p in x]
-    out = np.empty((v, v, n))
-    for k in range(v):
-        out[k, k] = x[k]
-        t = grid
-        for j in range(k + 1, v):
-            t = np.interp(t, grid, ahead[j - 1])
-            out[k, j] = readers[j](t)
-        t = grid
-        for j in range(k - 1, -1, -1):
-            t = np.interp(t, ahead[j], grid)
-            out[k, j] = readers[j](t)
-    return out
-
-
-__all__ = ["warp_path", "displacement", "registered", "Morph", "BAND", "SMOOTH", "UPSAMPLE"]
+__all__ = ["warp_path", "displacement", "Morph", "BAND", "SMOOTH", "UPSAMPLE"]
