@@ -142,15 +142,15 @@ def smoothed_centres(velocities: np.ndarray, c: np.ndarray, strength: float) -> 
     velocities are left as they are.
     """
     v = np.asarray(velocities, dtype=np.float64)
-    out = np.array(c, dtype=np.float64, copy=True)
+    x = np.asarray(c, dtype=np.float64)
     n = len(v)
     if n < 3:
-        return out
+        return x.copy()
     h = np.diff((v - v[0]) / (v[-1] - v[0]))
     rows, s = np.arange(n - 2), 2.0 / (h[:-1] + h[1:])
     d2 = np.zeros((n - 2, n))
     d2[rows, rows], d2[rows, rows + 1], d2[rows, rows + 2] = s / h[:-1], -s * (1 / h[:-1] + 1 / h[1:]), s / h[1:]
-    return np.linalg.solve(np.eye(n) + strength * d2.T @ d2, out)
+    return np.linalg.solve(np.eye(n) + strength * d2.T @ d2, x)
 
 
 def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, paths: dict) -> np.ndarray:
@@ -238,7 +238,7 @@ def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
 def choose_smoothing(objects: dict[str, _Object], penalties: dict[str, float], shrink: dict[str, bool],
                      shrink_folds: dict[str, dict[bool, list[float]]], paths: dict):
     """Whether each object the warp left out has its centres smoothed (:func:`smoothed_centres`) and how strongly
-    (``None``: not; the centres as :func:`choose_shrink` left them), the pooled choice, and the scores.
+    (``None``: not; the centres as :func:`choose_shrink` left them), the pooled choice, and the mean scores.
 
     Each training target left out is predicted from the smoothed centres of the velocities that remain, as
     :func:`choose_shrink` scores; a warped object is not smoothed.
