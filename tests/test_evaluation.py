@@ -256,3 +256,76 @@ def test_generalisation_takes_no_dataset(tmp_path):
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--protocol", "generalisation",
                         "--dataset", "x", "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert r.returncode == 2 and "runs its fixed list of datasets; drop --dataset" in r.stderr
+
+
+def _comparable(results: dict) -> dict:
+    """Results without what a rerun measures afresh (fit and run times)."""
+    out = json.loads(json.dumps(results))
+    for row in out["methods"].values():
+        row.pop("latency_ms", None), row.pop("table_latency_ms", None)
+        for fit in row["fits"]:
+            fit.pop("fit_s")
+    return out
+
+
+def test_a_stopped_run_resumes_where_it_stopped(uneven):
+    rows = methods_from(["ensemble"])
+    saved = []
+    full = run_evaluation(uneven, "max-min", rows, repeats=5, echo=lambda m: None,
+                          on_round=lambda r: saved.append(json.loads(json.dumps(r))))
+    assert [s["rounds"] for s in saved] == [1, 2, 3, 4] and saved[-1]["rounds_planned"] == 4
+    said = []
+    resumed = run_evaluation(uneven, "max-min", rows, repeats=5, previous=saved[1], echo=said.append)
+    assert sum("kept from the earlier run" in m for m in said) == 2
+    assert sum(m.strip() == "ensemble: fitting" for m in said) == 2  # only rounds 3 and 4 were fitted
+    assert _comparable(resumed) == _comparable(full)
+    assert "latency_ms" in resumed["methods"]["ensemble"]  # kept from the earlier run's first round
+    again = run_evaluation(uneven, "max-min", rows, repeats=5, previous=json.loads(json.dumps(full)),
+                           echo=said.append)
+    assert _comparable(again) == _comparable(full)
+
+
+def test_a_resumed_run_refuses_other_rows_protocols_and_drops(uneven):
+    rows = methods_from(["ensemble"])
+    earlier = json.loads(json.dumps(run_evaluation(uneven, "max-min", rows, repeats=5, max_rounds=2,
+                                                   echo=lambda m: None)))
+    quiet = dict(repeats=5, echo=lambda m: None)
+    other = [rows[0], rows[1].__class__("ensemble", "ensemble", {"trims": [0.1]})]
+    with pytest.raises(EffectError, match="rows differ from these in: ensemble"):
+        run_evaluation(uneven, "max-min", other, previous=earlier, **quiet)
+    with pytest.raises(EffectError, match="rows differ from these in: ensemble-warp"):
+        run_evaluation(uneven, "max-min", methods_from(["ensemble", "ensemble-warp"]), previous=earlier, **quiet)
+    with pytest.raises(EffectError, match="the earlier run has protocol 'lovo', this one 'looo'"):
+        run_evaluation(uneven, "max-min", rows, protocol="looo", previous=earlier, **quiet)
+    changed = json.loads(json.dumps(earlier))
+    fold = changed["folds"][0]
+    fold["mean_of_others_rmse"] *= 1.001
+    with pytest.raises(EffectError, match=f"the drops of {fold['object']} at {fold['velocity']:g} m/s are not those"):
+        run_evaluation(uneven, "max-min", rows, previous=changed, **quiet)
+    old = {k: v for k, v in earlier.items() if k != "hapticfx"}
+    with pytest.raises(EffectError, match="written by a hapticfx that cannot resume it"):
+        run_evaluation(uneven, "max-min", rows, previous=old, **quiet)
+    # the earlier run's 2 rounds (1 and 4) are kept in a run of every round
+    said = []
+    run_evaluation(uneven, "max-min", rows, repeats=5, previous=earlier, echo=said.append)
+    assert [m.split(":")[0] for m in said if "kept from the earlier run" in m] == ["[1/4] interior velocity 1 of each object",
+                                                                                     "[4/4] interior velocity 4 of each object"]
+
+
+def test_the_command_resumes_and_refuses_a_corrupt_results_file(uneven, tmp_path):
+    out = tmp_path / "bench"
+    cmd = [sys.executable, "-m", "hapticfx", "bench", "interpolators", "--dataset", str(uneven.path),
+           "--methods", "ensemble", "--repeats", "5", "--out", str(out), "--resume"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "no earlier run to resume; running every round" in r.stderr
+    first = json.loads((out / "results.json").read_text())
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.count("kept from the earlier run") == 4 and "fitting" not in r.stderr
+    assert json.loads((out / "results.json").read_text())["summary"]["methods"]["ensemble"]["rmse_ratio"] \
+        == first["summary"]["methods"]["ensemble"]["rmse_ratio"]
+    (out / "results.json").write_text('{"results": {"folds": []')
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert f"{out / 'results.json'}: cannot resume from it (JSONDecodeError" in r.stderr

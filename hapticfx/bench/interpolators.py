@@ -9,6 +9,7 @@ from typing import Optional
 
 import typer
 
+from ..atomic import atomic_path
 from ..errors import EffectError
 from ..progress import say
 
@@ -45,7 +46,12 @@ def interpolators(
                                              help="Run at most this many rounds per "
                                              "dataset, evenly spread (tables say how many folds ran)."),
     out: Path = typer.Option(Path("bench-interpolators"), "--out", "-o", metavar="DIR", help="Directory for tables.md, "
-                             "results.json and the PNGs (one sub-folder per dataset for generalisation)."),
+                             "results.json and the PNGs (one sub-folder per dataset for generalisation). "
+                             "results.json is rewritten after every round."),
+    resume: bool = typer.Option(False, "--resume", help="Keep the rounds that the results.json already in --out "
+                                "finished and run only the others (a stopped run loses only the round it was in). "
+                                "The dataset, rows and settings must be the same, and so must the hapticfx version; "
+                                "the drops are checked against the recorded floors."),
 ):
     """Score interpolators on held-out recorded velocities: RMSE against the representative, every drop and
     the drops' mean, log-spectral distance, peak error, ST-SIM and SPQI; paired ratios to linear and shares
@@ -61,7 +67,8 @@ def interpolators(
                    {**r.fit, "training": {**training, **r.fit.get("training", {})}} if training else r.fit)
             for r in rows]
     if protocol != "generalisation":
-        md = _run(dataset, protocol, reducer, rows, seed=seed, repeats=repeats, max_rounds=max_rounds, out=out)[0]
+        md = _run(dataset, protocol, reducer, rows, seed=seed, repeats=repeats, max_rounds=max_rounds, out=out,
+                  resume=resume)[0]
         typer.echo(md)
         return
     if dataset != "builtin:helmet-drops":
@@ -71,7 +78,7 @@ def interpolators(
     for ref, fold_protocol in gen.DATASETS:
         sub = out / f"{ref.split(':')[-1]}-{fold_protocol}"
         _, results, summary = _run(ref, fold_protocol, reducer, rows, seed=seed, repeats=repeats,
-                                   max_rounds=max_rounds, out=sub)
+                                   max_rounds=max_rounds, out=sub, resume=resume)
         runs.append((results, summary))
         tables.append(gen.table(results, summary))
         typer.echo(tables[-1])
@@ -84,7 +91,7 @@ def interpolators(
 
 
 def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int, max_rounds: int | None,
-         out: Path):
+         out: Path, resume: bool = False):
     """One dataset and fold protocol: run, summarise, write tables.md, results.json and the PNGs into ``out``."""
     from ..data.dataset import open_dataset
     from ..evaluation.heldout import resolve
@@ -95,15 +102,43 @@ def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int
     if reducer not in ds.reducers():
         raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
     say(f"dataset {ds.name} ({reducer}), protocol {protocol}, methods {', '.join(r.row for r in rows)}")
-    results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, max_rounds=max_rounds, echo=say)
-    summary = summarise(results, seed=seed)
+    file = out / "results.json"
+    previous = _earlier(file) if resume else None
     out.mkdir(parents=True, exist_ok=True)
+
+    def save(results: dict) -> dict:
+        summary = summarise(results, seed=seed)
+        with atomic_path(file) as tmp:
+            tmp.write_text(json.dumps({"results": results, "summary": summary}, indent=1) + "\n")
+        return summary
+
+    try:
+        results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, max_rounds=max_rounds,
+                                 previous=previous, on_round=save, echo=say)
+    except EffectError as exc:
+        raise EffectError(str(exc), source=str(file)) if previous is not None else exc
+    summary = save(results)
     md = markdown(results, summary)
     (out / "tables.md").write_text(md)
-    (out / "results.json").write_text(json.dumps({"results": results, "summary": summary}, indent=1) + "\n")
     pngs = figures(results, summary, {o: ds.bank(o, reducer) for o in ds.objects}, out)
     say(f"wrote {out / 'tables.md'}, {out / 'results.json'}, " + ", ".join(map(str, pngs)))
     return md, results, summary
+
+
+def _earlier(file: Path) -> dict | None:
+    """The results of the run saved in ``file``, or None (and a line saying so) where there is none yet."""
+    if not file.exists():
+        say(f"{file}: no earlier run to resume; running every round")
+        return None
+    try:
+        data = json.loads(file.read_text())
+        results = data["results"]
+        if not isinstance(results["folds"], list) or not isinstance(results["methods"], dict):
+            raise TypeError("folds or methods of the wrong type")
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise EffectError(f"cannot resume from it ({type(exc).__name__}: {exc}); expected the results.json of "
+                          "`hapticfx bench interpolators`", source=str(file)) from exc
+    return results
 
 
 def register(bench: typer.Typer) -> None:

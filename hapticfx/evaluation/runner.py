@@ -11,6 +11,7 @@ answer is compared with the method's own.
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,6 +20,7 @@ from typing import Callable
 import numpy as np
 import yaml
 
+from .. import __version__
 from ..data.dataset import Dataset
 from ..data.training import recorded_drops, training_data
 from ..errors import EffectError, HapticfxError
@@ -97,22 +99,28 @@ def _scores(pred, truth, drops, rate_hz: float) -> dict:
 
 
 def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, protocol: str = "lovo",
-                   repeats: int = 50, max_rounds: int | None = None, echo: Callable[[str], None] = print) -> dict:
+                   repeats: int = 50, max_rounds: int | None = None, previous: dict | None = None,
+                   on_round: Callable[[dict], None] | None = None, echo: Callable[[str], None] = print) -> dict:
     """Fit every method on every round and score it on the held-out folds; returns plain data (JSON-able).
 
     ``max_rounds``: run only that many rounds, evenly spread over the protocol's (the result says how many).
+    ``previous``: the results of an earlier run of the same dataset, reducer, protocol and rows; the rounds it
+    finished are kept, not run again (:func:`kept_rounds`). ``on_round``: called with the results so far after
+    each round, so that a long run can be saved as it goes.
     """
     banks = {o: dataset.bank(o, reducer) for o in dataset.objects}
     rounds = rounds_for(protocol, banks)
     if max_rounds is not None and max_rounds < len(rounds):
         rounds = [rounds[int(i)] for i in np.unique(np.linspace(0, len(rounds) - 1, max_rounds).round())]
+    kept = kept_rounds(previous, dataset.name, reducer, protocol, methods, rounds) if previous else {}
     rate = dataset.rate_hz
     drops_cache: dict = {}
-    folds, rows = [], {m.row: {"interpolator": m.interpolator, "fits": [], "folds": [], "error": None} for m in methods}
+    folds = []
+    rows = {m.row: {"interpolator": m.interpolator, **_settings(m), "fits": [], "folds": [], "error": None}
+            for m in methods}
     for k, rnd in enumerate(rounds):
-        echo(f"[{k + 1}/{len(rounds)}] {rnd.name}: hold out "
-             + ", ".join(f"{f.object} {f.velocity:g}" for f in rnd.folds))
-        data = training_data(dataset, reducer, holdout=rnd.holdout, targets=rnd.targets)
+        echo(f"[{k + 1}/{len(rounds)}] {rnd.name}: " + ("kept from the earlier run, " if k in kept else "")
+             + "hold out " + ", ".join(f"{f.object} {f.velocity:g}" for f in rnd.folds))
         truths = {}
         for f in rnd.folds:
             truth, drops, rep = _fold_truth(dataset, f.object, reducer, f.velocity, drops_cache)
@@ -120,21 +128,95 @@ def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, pro
             floor = {**measures.floors(drops, rep, rate_hz=rate), **perceptual.drop_pairs(drops, rate_hz=rate)} \
                 if drops is not None else {}
             folds.append({"object": f.object, "velocity": f.velocity, "round": k, **floor})
-        for m in methods:
-            row = rows[m.row]
-            if row["error"]:
-                continue
-            echo(f"  {m.row}: fitting")
-            try:
-                _run_method(m, row, data, rnd, truths, rate, repeats if k == 0 else 0, k == len(rounds) // 2, echo)
-            except HapticfxError as exc:
-                row["error"] = str(exc)
-                echo(f"  {m.row}: skipped: {exc}")
-    return {"dataset": dataset.name, "reducer": reducer, "protocol": protocol, "rate_hz": rate,
-            "rounds": len(rounds), "folds": folds, "methods": rows}
+        if k in kept:
+            _keep_round(previous, kept[k], k, folds[-len(rnd.folds):], rows, middle=k == len(rounds) // 2)
+        else:
+            data = training_data(dataset, reducer, holdout=rnd.holdout, targets=rnd.targets)
+            for m in methods:
+                row = rows[m.row]
+                if row["error"]:
+                    continue
+                echo(f"  {m.row}: fitting")
+                try:
+                    _run_method(m, row, data, rnd, k, truths, rate, 0 if "latency_ms" in row else repeats,
+                                k == len(rounds) // 2, echo)
+                except HapticfxError as exc:
+                    row["error"] = str(exc)
+                    echo(f"  {m.row}: skipped: {exc}")
+        if on_round is not None:
+            on_round(_results(dataset, reducer, protocol, k + 1, len(rounds), folds, rows))
+    return _results(dataset, reducer, protocol, len(rounds), len(rounds), folds, rows)
 
 
-def _run_method(m: Method, row: dict, data, rnd, truths: dict, rate: float, repeats: int, keep: bool, echo) -> None:
+def _results(dataset: Dataset, reducer: str, protocol: str, done: int, planned: int, folds, rows) -> dict:
+    return {"dataset": dataset.name, "reducer": reducer, "protocol": protocol, "rate_hz": dataset.rate_hz,
+            "hapticfx": __version__, "rounds": done, "rounds_planned": planned, "folds": folds, "methods": rows}
+
+
+def _settings(m: Method) -> dict:
+    """A row's options and fit settings as they read back from JSON (what a resumed run compares)."""
+    return json.loads(json.dumps({"options": m.options, "fit": m.fit}, default=str))
+
+
+def kept_rounds(previous: dict, dataset: str, reducer: str, protocol: str, methods: list[Method],
+                rounds: list) -> dict[int, int]:
+    """Which of ``rounds`` an earlier run (``previous``) finished for every row: round index -> its index there.
+
+    The earlier run must be of the same dataset, reducer and fold protocol, by this version of hapticfx, with
+    the same rows and settings (an error says what differs); its rounds are matched by their held-out folds.
+    The data is checked as each kept round is taken (:func:`_keep_round`)."""
+    if "hapticfx" not in previous:
+        raise EffectError("the earlier run was written by a hapticfx that cannot resume it; run without resuming, "
+                          "or into another folder")
+    want = {"dataset": dataset, "reducer": reducer, "protocol": protocol, "hapticfx": __version__}
+    for key, value in want.items():
+        if previous.get(key) != value:
+            raise EffectError(f"the earlier run has {key} {previous.get(key)!r}, this one {value!r}; "
+                              "run without resuming, or into another folder")
+    rows = {m.row: {"interpolator": m.interpolator, **_settings(m)} for m in methods}
+    before = {name: {k: r.get(k) for k in ("interpolator", "options", "fit")}
+              for name, r in previous.get("methods", {}).items()}
+    if before != rows:
+        differ = sorted(set(rows) ^ set(before) | {n for n in set(rows) & set(before) if rows[n] != before[n]})
+        raise EffectError(f"the earlier run's rows differ from these in: {', '.join(differ)}; "
+                          "run with the same --methods and --config, or into another folder")
+    held = {}
+    for f in previous["folds"]:
+        held.setdefault(f.get("round"), set()).add((f.get("object"), f.get("velocity")))
+    out = {}
+    for k, rnd in enumerate(rounds):
+        want_folds = {(f.object, f.velocity) for f in rnd.folds}
+        j = next((j for j, got in held.items() if got == want_folds), None)
+        if j is not None and all(not r.get("error") and any(x.get("round") == j for x in r.get("fits", []))
+                                 for r in previous["methods"].values()):
+            out[k] = j
+    return out
+
+
+def _keep_round(previous: dict, j: int, k: int, floors: list[dict], rows: dict, *, middle: bool) -> None:
+    """Copy round ``j`` of ``previous`` into ``rows`` as round ``k``, once its folds' floors (just computed from
+    the data) are the ones it recorded."""
+    before = {(f["object"], f["velocity"]): f for f in previous["folds"] if f["round"] == j}
+    for f in floors:
+        old = before[(f["object"], f["velocity"])]
+        if any(not np.isclose(old.get(key, np.nan), value, rtol=1e-9, atol=0, equal_nan=True)
+               for key, value in f.items() if key not in ("object", "velocity", "round")):
+            raise EffectError(f"the drops of {f['object']} at {f['velocity']:g} m/s are not those of the earlier "
+                              "run; run without resuming, or into another folder")
+    for name, row in rows.items():
+        old = previous["methods"][name]
+        row["fits"] += [{**x, "round": k} for x in old["fits"] if x.get("round") == j]
+        row["folds"] += [{**e, "round": k} for e in old["folds"] if (e["object"], e["velocity"]) in before]
+        for key in ("latency_ms", "table_latency_ms"):
+            if key in old and "latency_ms" not in row:
+                row[key] = old[key]
+        if middle:
+            mine = {f"{o}@{v:g}" for o, v in before}
+            row["predictions"] = {key: p for key, p in old.get("predictions", {}).items() if key in mine}
+
+
+def _run_method(m: Method, row: dict, data, rnd, k: int, truths: dict, rate: float, repeats: int, keep: bool,
+                echo) -> None:
     interp = get_registry().create("interpolator", m.interpolator, **m.options)
     t0 = time.perf_counter()
     summary = interp.fit(data, **m.fit, label=f"{m.row}, {rnd.name}")
@@ -145,12 +227,13 @@ def _run_method(m: Method, row: dict, data, rnd, truths: dict, rate: float, repe
     if table is not None:
         for bank in data.banks.values():
             table.attach(bank, rebuild="(evaluation)")
-    row["fits"].append({"fit_s": fit_s, **{k: v for k, v in summary.items() if isinstance(v, (int, float, str))}})
+    row["fits"].append({"round": k, "fit_s": fit_s,
+                        **{key: v for key, v in summary.items() if isinstance(v, (int, float, str))}})
     for f in rnd.folds:
         lo, hi = data.banks[f.object].neighbours(f.velocity)
         pred = interp.interpolate(lo, hi, f.velocity)
         truth, drops = truths[f]
-        entry = {"object": f.object, "velocity": f.velocity, **_scores(pred, truth, drops, rate)}
+        entry = {"object": f.object, "velocity": f.velocity, "round": k, **_scores(pred, truth, drops, rate)}
         if keep:
             row.setdefault("predictions", {})[f"{f.object}@{f.velocity:g}"] = pred.tolist()
         if table is not None:
