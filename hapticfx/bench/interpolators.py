@@ -112,11 +112,8 @@ def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int
             tmp.write_text(json.dumps({"results": results, "summary": summary}, indent=1) + "\n")
         return summary
 
-    try:
-        results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, max_rounds=max_rounds,
-                                 previous=previous, on_round=save, echo=say)
-    except EffectError as exc:
-        raise EffectError(str(exc), source=str(file)) if previous is not None else exc
+    results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, max_rounds=max_rounds,
+                             previous=previous, previous_source=str(file), on_round=save, echo=say)
     summary = save(results)
     md = markdown(results, summary)
     (out / "tables.md").write_text(md)

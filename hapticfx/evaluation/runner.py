@@ -100,19 +100,22 @@ def _scores(pred, truth, drops, rate_hz: float) -> dict:
 
 def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, protocol: str = "lovo",
                    repeats: int = 50, max_rounds: int | None = None, previous: dict | None = None,
-                   on_round: Callable[[dict], None] | None = None, echo: Callable[[str], None] = print) -> dict:
+                   previous_source: str | None = None, on_round: Callable[[dict], None] | None = None,
+                   echo: Callable[[str], None] = print) -> dict:
     """Fit every method on every round and score it on the held-out folds; returns plain data (JSON-able).
 
     ``max_rounds``: run only that many rounds, evenly spread over the protocol's (the result says how many).
     ``previous``: the results of an earlier run of the same dataset, reducer, protocol and rows; the rounds it
-    finished are kept, not run again (:func:`kept_rounds`). ``on_round``: called with the results so far after
+    finished are kept, not run again (:func:`kept_rounds`; ``previous_source``, the file it came from, is what
+    its errors name). ``on_round``: called with the results so far after
     each round, so that a long run can be saved as it goes.
     """
     banks = {o: dataset.bank(o, reducer) for o in dataset.objects}
     rounds = rounds_for(protocol, banks)
     if max_rounds is not None and max_rounds < len(rounds):
         rounds = [rounds[int(i)] for i in np.unique(np.linspace(0, len(rounds) - 1, max_rounds).round())]
-    kept = kept_rounds(previous, dataset.name, reducer, protocol, methods, rounds) if previous else {}
+    kept = kept_rounds(previous, dataset.name, reducer, protocol, methods, rounds, source=previous_source) \
+        if previous else {}
     rate = dataset.rate_hz
     drops_cache: dict = {}
     folds = []
@@ -129,7 +132,8 @@ def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, pro
                 if drops is not None else {}
             folds.append({"object": f.object, "velocity": f.velocity, "round": k, **floor})
         if k in kept:
-            _keep_round(previous, kept[k], k, folds[-len(rnd.folds):], rows, middle=k == len(rounds) // 2)
+            _keep_round(previous, kept[k], k, folds[-len(rnd.folds):], rows, middle=k == len(rounds) // 2,
+                        source=previous_source)
         else:
             data = training_data(dataset, reducer, holdout=rnd.holdout, targets=rnd.targets)
             for m in methods:
@@ -159,7 +163,7 @@ def _settings(m: Method) -> dict:
 
 
 def kept_rounds(previous: dict, dataset: str, reducer: str, protocol: str, methods: list[Method],
-                rounds: list) -> dict[int, int]:
+                rounds: list, *, source: str | None = None) -> dict[int, int]:
     """Which of ``rounds`` an earlier run (``previous``) finished for every row: round index -> its index there.
 
     The earlier run must be of the same dataset, reducer and fold protocol, by this version of hapticfx, with
@@ -167,19 +171,19 @@ def kept_rounds(previous: dict, dataset: str, reducer: str, protocol: str, metho
     The data is checked as each kept round is taken (:func:`_keep_round`)."""
     if "hapticfx" not in previous:
         raise EffectError("the earlier run was written by a hapticfx that cannot resume it; run without resuming, "
-                          "or into another folder")
+                          "or into another folder", source=source)
     want = {"dataset": dataset, "reducer": reducer, "protocol": protocol, "hapticfx": __version__}
     for key, value in want.items():
         if previous.get(key) != value:
             raise EffectError(f"the earlier run has {key} {previous.get(key)!r}, this one {value!r}; "
-                              "run without resuming, or into another folder")
+                              "run without resuming, or into another folder", source=source)
     rows = {m.row: {"interpolator": m.interpolator, **_settings(m)} for m in methods}
     before = {name: {k: r.get(k) for k in ("interpolator", "options", "fit")}
               for name, r in previous.get("methods", {}).items()}
     if before != rows:
         differ = sorted(set(rows) ^ set(before) | {n for n in set(rows) & set(before) if rows[n] != before[n]})
         raise EffectError(f"the earlier run's rows differ from these in: {', '.join(differ)}; "
-                          "run with the same --methods and --config, or into another folder")
+                          "run with the same --methods and --config, or into another folder", source=source)
     held = {}
     for f in previous["folds"]:
         held.setdefault(f.get("round"), set()).add((f.get("object"), f.get("velocity")))
@@ -193,7 +197,8 @@ def kept_rounds(previous: dict, dataset: str, reducer: str, protocol: str, metho
     return out
 
 
-def _keep_round(previous: dict, j: int, k: int, floors: list[dict], rows: dict, *, middle: bool) -> None:
+def _keep_round(previous: dict, j: int, k: int, floors: list[dict], rows: dict, *, middle: bool,
+                source: str | None) -> None:
     """Copy round ``j`` of ``previous`` into ``rows`` as round ``k``, once its folds' floors (just computed from
     the data) are the ones it recorded."""
     before = {(f["object"], f["velocity"]): f for f in previous["folds"] if f["round"] == j}
@@ -202,7 +207,7 @@ def _keep_round(previous: dict, j: int, k: int, floors: list[dict], rows: dict, 
         if any(not np.isclose(old.get(key, np.nan), value, rtol=1e-9, atol=0, equal_nan=True)
                for key, value in f.items() if key not in ("object", "velocity", "round")):
             raise EffectError(f"the drops of {f['object']} at {f['velocity']:g} m/s are not those of the earlier "
-                              "run; run without resuming, or into another folder")
+                              "run; run without resuming, or into another folder", source=source)
     for name, row in rows.items():
         old = previous["methods"][name]
         row["fits"] += [{**x, "round": k} for x in old["fits"] if x.get("round") == j]
