@@ -62,6 +62,8 @@ def train(
         from .curves import curves_png
 
         title = f"{cfg.interpolator} on {meta['dataset']['name']}"
+        if meta.get("init"):
+            title += f", fine-tuned from weights pre-trained on {meta['init']['dataset']}"
         typer.echo(f"wrote {curves_png(curves, [(cfg.interpolator, meta)], title=title)}")
 
 

@@ -9,7 +9,8 @@ from hapticfx.atomic import atomic_path
 
 def curves_png(path: Path, runs: list[tuple[str, dict]], *, title: str) -> Path:
     """One panel per run (label, checkpoint metadata): train and validation RMSE per epoch, the starting
-    validation RMSE (epoch 0: the untrained network, the blend of the neighbours' centres) and the best epoch."""
+    validation RMSE (epoch 0: the weights training starts from, the untrained network's blend of the neighbours'
+    centres or, when fine-tuning, the ``init`` checkpoint's) and the best epoch."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -23,7 +24,8 @@ def curves_png(path: Path, runs: list[tuple[str, dict]], *, title: str) -> Path:
         ax.plot(epochs, [h[1] for h in t["history"]], lw=1.2, color="#1f5f99", label="validation (held-out targets)")
         start = t.get("start_val_rmse_normalised")
         if start is not None:
-            ax.plot([0], [start], "o", color="#1f5f99", label="validation before training")
+            start_from = "the pre-trained weights" if meta.get("init") else "the blend, untrained"
+            ax.plot([0], [start], "o", color="#1f5f99", label=f"validation at epoch 0 ({start_from})")
         ax.axvline(t["best_epoch"], color="k", lw=0.7, ls=":", label=f"best epoch {t['best_epoch']}")
         ax.set_xlabel("epoch")
         ax.set_ylabel("RMSE (normalised by the neighbours' peak)")
@@ -32,6 +34,6 @@ def curves_png(path: Path, runs: list[tuple[str, dict]], *, title: str) -> Path:
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
     with atomic_path(Path(path), make_parents=True) as tmp:
-        fig.savefig(tmp, dpi=100, format="png", metadata={"Software": "hapticfx"})
+        fig.savefig(tmp, dpi=100, format="png", metadata={"Software": "hapticfx", "Title": title})
     plt.close(fig)
     return Path(path)

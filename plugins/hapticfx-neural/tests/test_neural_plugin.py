@@ -54,6 +54,22 @@ def test_train_command_and_clear_errors(tmp_path, syn_dataset):
     assert f"{bad}: training: unknown key(s) epoch" in r.stderr
 
 
+def test_learning_curves_say_where_training_started(tmp_path, syn_dataset):
+    from PIL import Image
+
+    cfg = tiny_config(tmp_path, syn_dataset, epochs=2)
+    r = _cli("train", str(cfg), "--quiet", "--curves", str(tmp_path / "scratch.png"))
+    assert r.returncode == 0, r.stderr
+    tuned = tmp_path / "tune.yaml"
+    tuned.write_text(yaml.safe_dump({**yaml.safe_load(cfg.read_text()), "out": str(tmp_path / "tuned"),
+                                     "init": str(tmp_path / "ck-convbilstm" / "model.safetensors")}))
+    r = _cli("train", str(tuned), "--quiet", "--curves", str(tmp_path / "tuned.png"))
+    assert r.returncode == 0, r.stderr
+    titles = [Image.open(tmp_path / f"{n}.png").text["Title"] for n in ("scratch", "tuned")]
+    assert titles[0] == "convbilstm on synthetic"
+    assert titles[1] == "convbilstm on synthetic, fine-tuned from weights pre-trained on synthetic"
+
+
 def test_bench_interpolators_trains_networks_per_round_and_serves_them_from_tables(tmp_path, syn_dataset):
     rows = tmp_path / "rows.yaml"
     rows.write_text(yaml.safe_dump({
