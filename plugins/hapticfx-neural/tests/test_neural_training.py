@@ -158,6 +158,8 @@ def test_a_held_out_set_is_named_as_in_the_bench(tmp_path, syn_dataset, monkeypa
     """`dataset: heldout:NAME` trains on the cached held-out set. Simulating one takes about a minute, so the
     small synthetic set stands where the cache keeps heldout-3drops; resolving it is what is tested."""
     import shutil
+    import subprocess
+    import sys
 
     import yaml
 
@@ -168,8 +170,11 @@ def test_a_held_out_set_is_named_as_in_the_bench(tmp_path, syn_dataset, monkeypa
     path = tiny_config(tmp_path, syn_dataset, epochs=1)
     cfg = yaml.safe_load(path.read_text())
     path.write_text(yaml.safe_dump({**cfg, "dataset": "heldout:heldout-3drops"}))
-    meta, _ = train_from_config(load_config(path), progress=False)
+    meta, weights = train_from_config(load_config(path), progress=False)
     assert meta["dataset"]["ref"] == str(dataset_path("heldout-3drops").resolve())
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "table", str(weights), "--dataset", "heldout:heldout-3drops"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0 and "wrote" in r.stdout, r.stderr
 
 
 def test_steps_must_divide_the_profile_length(tmp_path, syn_dataset):
