@@ -70,7 +70,7 @@ def train(
 def table(
     weights: Path = typer.Argument(..., help="Checkpoint directory or .safetensors file."),
     dataset: Optional[str] = typer.Option(None, "--dataset", "-d", metavar="DATASET",
-                                          help="Dataset path, builtin:NAME or heldout:NAME (default: "
+                                          help="Dataset path or builtin:NAME (default: "
                                           "the one the checkpoint was trained on)."),
 ):
     """Write the velocity table of a trained interpolator: what effects play without torch.
@@ -79,7 +79,6 @@ def table(
     trained elsewhere. The table covers every object of the dataset.
     """
     from hapticfx.data.dataset import open_dataset
-    from hapticfx.evaluation.heldout import resolve
 
     from . import checkpoint
     from .interpolator import require_torch
@@ -91,7 +90,7 @@ def table(
     ref = dataset or meta["dataset"].get("ref")
     if ref is None:
         raise EffectError(f"{path}: the checkpoint does not say where its dataset is; give --dataset")
-    written = write_table(path, open_dataset(resolve(ref, progress=typer.echo)), progress=typer.echo)
+    written = write_table(path, open_dataset(ref), progress=typer.echo)
     typer.echo(f"wrote {written}")
 
 

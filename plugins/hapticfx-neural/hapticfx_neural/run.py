@@ -6,7 +6,6 @@ from pathlib import Path
 
 from hapticfx.data.dataset import open_dataset
 from hapticfx.errors import DatasetError
-from hapticfx.evaluation.heldout import resolve
 from hapticfx.progress import say
 
 from .config import TrainConfig
@@ -49,7 +48,7 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
     from hapticfx.data.training import training_data
 
     base = Path(cfg.source).parent if cfg.source != "<config>" else None
-    datasets = [open_dataset(resolve(ref, progress=say), relative_to=base) for ref in cfg.datasets]
+    datasets = [open_dataset(ref, relative_to=base) for ref in cfg.datasets]
     parts, targets = [], {}
     for ds in datasets:
         objects = cfg.objects or ds.objects

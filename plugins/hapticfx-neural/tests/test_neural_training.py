@@ -142,7 +142,6 @@ def test_no_weights_for_the_dataset_names_the_command(syn_dataset):
     ({"interpolator": "lstm", "dataset": "x", "training": {"epochs": 0}}, "training.epochs"),
     ({"interpolator": "convbilstm", "dataset": "x", "model": {"kernel": 4}}, "model.kernel"),
     ({"interpolator": "convbilstm", "dataset": "x", "model": {"decoder_input": "sideways"}}, "model.decoder_input"),
-    ({"interpolator": "lstm", "dataset": ["x", "heldout:heldout-nope"]}, "heldout:heldout-irregular"),
 ])
 def test_bad_config_names_file_and_key(tmp_path, bad, key):
     import yaml
@@ -152,29 +151,6 @@ def test_bad_config_names_file_and_key(tmp_path, bad, key):
     with pytest.raises(EffectError) as err:
         load_config(path)
     assert str(path) in str(err.value) and key in str(err.value)
-
-
-def test_a_held_out_set_is_named_as_in_the_bench(tmp_path, syn_dataset, monkeypatch):
-    """`dataset: heldout:NAME` trains on the cached held-out set. Simulating one takes about a minute, so the
-    small synthetic set stands where the cache keeps heldout-3drops; resolving it is what is tested."""
-    import shutil
-    import subprocess
-    import sys
-
-    import yaml
-
-    from hapticfx.evaluation.heldout import dataset_path
-
-    monkeypatch.setenv("HAPTICFX_CACHE", str(tmp_path / "cache"))
-    shutil.copytree(syn_dataset, dataset_path("heldout-3drops"))
-    path = tiny_config(tmp_path, syn_dataset, epochs=1)
-    cfg = yaml.safe_load(path.read_text())
-    path.write_text(yaml.safe_dump({**cfg, "dataset": "heldout:heldout-3drops"}))
-    meta, weights = train_from_config(load_config(path), progress=False)
-    assert meta["dataset"]["ref"] == str(dataset_path("heldout-3drops").resolve())
-    r = subprocess.run([sys.executable, "-m", "hapticfx", "table", str(weights), "--dataset", "heldout:heldout-3drops"],
-                       capture_output=True, text=True)
-    assert r.returncode == 0 and "wrote" in r.stdout, r.stderr
 
 
 def test_steps_must_divide_the_profile_length(tmp_path, syn_dataset):
