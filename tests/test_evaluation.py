@@ -15,6 +15,7 @@ from hapticfx.data.dataset import open_dataset
 from hapticfx.data.toy import toy_recordings
 from hapticfx.errors import DatasetError, EffectError
 from hapticfx.evaluation import measures
+from hapticfx.processing import likeness
 from hapticfx.evaluation.folds import looo_rounds, lovo_rounds, paper_rounds
 from hapticfx.evaluation.report import summarise
 from hapticfx.evaluation.runner import methods_from, run_evaluation
@@ -35,17 +36,17 @@ def uneven(tmp_path_factory):
 def test_measures_on_known_signals(dtype):
     t = np.arange(500) / 1000.0
     x = (np.sin(2 * np.pi * 100 * t) * np.exp(-10 * t)).astype(dtype)
-    assert measures.rmse(x, x) == 0.0 and measures.log_spectral_distance(x, x) == 0.0
-    assert np.isclose(measures.rmse(x, 0 * x), np.sqrt(np.mean(x.astype(np.float64) ** 2)))
-    assert np.isclose(measures.peak_error_db(0.5 * x, x), 20 * np.log10(0.5))
+    assert likeness.rmse(x, x) == 0.0 and likeness.log_spectral_distance(x, x) == 0.0
+    assert np.isclose(likeness.rmse(x, 0 * x), np.sqrt(np.mean(x.astype(np.float64) ** 2)))
+    assert np.isclose(likeness.peak_error_db(0.5 * x, x), 20 * np.log10(0.5))
     # a gain of 2 moves every bin by 6.02 dB where the spectrum stands well above the -60 dB floor
     noise = np.random.default_rng(1).standard_normal(500).astype(dtype)
-    assert np.isclose(measures.log_spectral_distance(2 * noise, noise), 20 * np.log10(2), atol=0.05)
+    assert np.isclose(likeness.log_spectral_distance(2 * noise, noise), 20 * np.log10(2), atol=0.05)
     blurred = np.convolve(x, np.ones(9) / 9, mode="same")
-    assert measures.log_spectral_distance(blurred, x) > 3.0 and measures.peak_error_db(blurred, x) < 0
-    assert measures.log_spectral_distance(np.zeros(500), np.zeros(500)) == 0.0
+    assert likeness.log_spectral_distance(blurred, x) > 3.0 and likeness.peak_error_db(blurred, x) < 0
+    assert likeness.log_spectral_distance(np.zeros(500), np.zeros(500)) == 0.0
     with pytest.raises(Exception, match="non-finite"):
-        measures.rmse(x * np.nan, x)
+        likeness.rmse(x * np.nan, x)
 
 
 def test_floors_of_identical_drops_are_zero_and_grow_with_spread():
@@ -62,14 +63,14 @@ def test_floors_of_identical_drops_are_zero_and_grow_with_spread():
 def test_floor_of_the_drop_mean_is_its_sampling_error():
     rng = np.random.default_rng(4)
     base = rng.standard_normal(300)
-    assert measures.mean_sampling_rmse(np.stack([base] * 6)) == 0.0  # a noiseless set: floor 0
+    assert likeness.mean_sampling_rmse(np.stack([base] * 6)) == 0.0  # a noiseless set: floor 0
     f = measures.floors(np.stack([base] * 6), 1)
     assert f["mean_sampling_rmse"] == 0.0 and f["drop_pairs_lsd_db"] == 0.0 and f["mean_of_others_lsd_db"] < 1e-9
     # D drops with iid noise sigma: the mean's error is sigma / sqrt(D), and the estimate says so
     for d in (3, 10):
         drops = base + 0.2 * rng.standard_normal((d, 300))
-        assert np.isclose(measures.mean_sampling_rmse(drops), 0.2 / np.sqrt(d), rtol=0.15)
-        truth_mean = np.mean([measures.rmse(base, (base + 0.2 * rng.standard_normal((d, 300))).mean(axis=0))
+        assert np.isclose(likeness.mean_sampling_rmse(drops), 0.2 / np.sqrt(d), rtol=0.15)
+        truth_mean = np.mean([likeness.rmse(base, (base + 0.2 * rng.standard_normal((d, 300))).mean(axis=0))
                               for _ in range(200)])
         assert np.isclose(truth_mean, 0.2 / np.sqrt(d), rtol=0.05)  # what an oracle scores against the mean
 
@@ -82,14 +83,12 @@ def test_the_drop_mean_loses_the_detail_each_drop_has_on_the_spectral_measure():
     pulse = np.exp(-((t - 0.1) / 0.01) ** 2)
     drops = pulse + 0.05 * rng.standard_normal((10, 500))
     f = measures.floors(drops, 0)
-    direct = np.mean([measures.log_spectral_distance(np.delete(drops, j, axis=0).mean(axis=0), drops[j])
+    direct = np.mean([likeness.log_spectral_distance(np.delete(drops, j, axis=0).mean(axis=0), drops[j])
                       for j in range(10)])
     assert np.isclose(f["mean_of_others_lsd_db"], direct, rtol=1e-12)
     assert f["mean_of_others_rmse"] < f["drop_to_drop_rmse"]
     assert f["mean_of_others_lsd_db"] > f["drop_pairs_lsd_db"]
-    from hapticfx.evaluation import perceptual
-
-    pairs = perceptual.drop_pairs(drops, rate_hz=1000.0)
+    pairs = measures.drop_pairs(drops, rate_hz=1000.0)
     assert 0.0 <= pairs["mean_of_others_stsim"] <= 1.0 and 0.0 <= pairs["mean_of_others_spqi"] <= 1.0
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hapticfx.bench.formats import compare, measure, print_tables
-from hapticfx.evaluation import perceptual
+from hapticfx.processing import perceptual
 
 RATE = 8000.0
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hapticfx.evaluation import perceptual as P
+from hapticfx.processing import perceptual as P
 
 
 def _impact(n=500, rate=1000.0):

@@ -11,7 +11,7 @@ same rate. Columns:
 - ``LSD``: log-spectral distance (dB, RMS over 10-500 Hz) of the two magnitude spectra, each floored
   at -60 dB of the original's peak (a synthesised carrier leaves other bands empty: without a floor
   the distance measures the floor);
-- ``ST-SIM``, ``SPQI``: hapticfx.evaluation.perceptual, the measures the interpolators are scored with
+- ``ST-SIM``, ``SPQI``: hapticfx.processing.perceptual, the measures the interpolators are scored with
   (at 2.8 kHz; full scale taken as 1 g);
 - ``bytes``: the file's size; ``export ms``: median time of analysis and writing (``--repeats``).
 """
@@ -63,7 +63,7 @@ def _spectrum(x: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
 
 def compare(x: np.ndarray, y: np.ndarray, rate_hz: float) -> dict:
     """The measures of ``y`` (a file read back) against ``x`` (the original), both at ``rate_hz``."""
-    from ..evaluation import perceptual
+    from ..processing import perceptual
     from ..formats.analysis import envelope
 
     y = np.pad(y[: len(x)], (0, max(0, len(x) - len(y))))

@@ -3,7 +3,7 @@
 Every method sees the same rounds. Per fold it is scored against the held-out
 representative, against every recorded drop at that velocity and against their mean,
 in RMSE, log-spectral distance and the perceptual ST-SIM and SPQI (against every drop;
-:mod:`hapticfx.evaluation.perceptual`), beside the floors those drops set
+:mod:`hapticfx.processing.perceptual`), beside the floors those drops set
 (:func:`hapticfx.evaluation.measures.floors`). A method that can
 serve a velocity table (``tabulate``) is also served from one, and the table's
 answer is compared with the method's own.
@@ -26,7 +26,8 @@ from ..data.training import recorded_drops, training_data
 from ..errors import EffectError, HapticfxError
 from ..registry import get_registry
 from ..timing import measure
-from . import measures, perceptual
+from ..processing import likeness, perceptual
+from . import measures
 from .folds import rounds_for
 
 
@@ -87,13 +88,13 @@ def _fold_truth(dataset: Dataset, obj: str, reducer: str, velocity: float, drops
 
 
 def _scores(pred, truth, drops, rate_hz: float) -> dict:
-    out = {"rmse": float(measures.rmse(pred, truth)),
-           "lsd_db": float(measures.log_spectral_distance(pred, truth, rate_hz=rate_hz)),
-           "peak_db": float(measures.peak_error_db(pred, truth))}
+    out = {"rmse": float(likeness.rmse(pred, truth)),
+           "lsd_db": float(likeness.log_spectral_distance(pred, truth, rate_hz=rate_hz)),
+           "peak_db": float(likeness.peak_error_db(pred, truth))}
     if drops is not None:
-        out["rmse_drops"] = float(np.mean(measures.rmse(pred, drops)))
-        out["rmse_mean"] = float(measures.rmse(pred, drops.mean(axis=0)))
-        out["lsd_drops_db"] = float(np.mean(measures.log_spectral_distance(pred, drops, rate_hz=rate_hz)))
+        out["rmse_drops"] = float(np.mean(likeness.rmse(pred, drops)))
+        out["rmse_mean"] = float(likeness.rmse(pred, drops.mean(axis=0)))
+        out["lsd_drops_db"] = float(np.mean(likeness.log_spectral_distance(pred, drops, rate_hz=rate_hz)))
     out.update(perceptual.scores(pred, truth[None] if drops is None else drops, rate_hz=rate_hz))
     return out
 
@@ -128,7 +129,7 @@ def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, pro
         for f in rnd.folds:
             truth, drops, rep = _fold_truth(dataset, f.object, reducer, f.velocity, drops_cache)
             truths[f] = (truth, drops)
-            floor = {**measures.floors(drops, rep, rate_hz=rate), **perceptual.drop_pairs(drops, rate_hz=rate)} \
+            floor = {**measures.floors(drops, rep, rate_hz=rate), **measures.drop_pairs(drops, rate_hz=rate)} \
                 if drops is not None else {}
             folds.append({"object": f.object, "velocity": f.velocity, "round": k, **floor})
         if k in kept:

@@ -36,7 +36,6 @@ from scipy.fft import dct
 from scipy.special import ndtr
 
 from ..dsp import resample_rate
-from .measures import leave_one_out_means
 from ..signal import valid_number, valid_signal
 
 BLOCK = 512
@@ -112,19 +111,3 @@ def scores(pred, truths, *, rate_hz: float) -> dict[str, float]:
     refs = [prepare(t, rate_hz=rate_hz) for t in np.atleast_2d(truths)]
     return {"stsim": float(np.mean([st_sim(p, r) for r in refs])),
             "spqi": float(np.mean([spqi(p, r) for r in refs]))}
-
-
-def drop_pairs(drops, *, rate_hz: float) -> dict[str, float]:
-    """What the recordings score against each other: each drop as the prediction of every other drop (mean);
-    and ``mean_of_others_*``: the mean of the other drops as the prediction of each drop (the RMSE floors'
-    ideal, on these measures)."""
-    raw = np.atleast_2d(drops)
-    d = [prepare(x, rate_hz=rate_hz) for x in raw]
-    if len(d) < 2:
-        return {}
-    pairs = [(i, j) for i in range(len(d)) for j in range(len(d)) if i != j]
-    means = [prepare(m, rate_hz=rate_hz) for m in leave_one_out_means(raw)]
-    return {"drop_to_drop_stsim": float(np.mean([st_sim(d[i], d[j]) for i, j in pairs])),
-            "drop_to_drop_spqi": float(np.mean([spqi(d[i], d[j]) for i, j in pairs])),
-            "mean_of_others_stsim": float(np.mean([st_sim(m, d[j]) for j, m in enumerate(means)])),
-            "mean_of_others_spqi": float(np.mean([spqi(m, d[j]) for j, m in enumerate(means)]))}
