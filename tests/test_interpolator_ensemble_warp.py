@@ -8,8 +8,9 @@ import pytest
 from hapticfx.data.bank import ProfileBank
 from hapticfx.errors import SignalError
 from hapticfx.interfaces import Profile, TrainingData
-from hapticfx.interpolators.ensemble_warp import (SMOOTHING, TOLERANCE, EnsembleWarpInterpolator, Fit,
-                                                 jackknife_noise, shrunk_centres, smoothed_centres, tabulate)
+from hapticfx.interpolators.ensemble_warp import (KEEP_SHARE, SMOOTHING, TEXTURE_HZ, TOLERANCE,
+                                                 EnsembleWarpInterpolator, Fit, highpass, jackknife_noise,
+                                                 shrunk_centres, smoothed_centres, tabulate)
 from hapticfx.interpolators.warp import Morph, displacement, warp_path
 
 N = 200
@@ -103,7 +104,7 @@ def test_the_warp_is_chosen_where_the_bounce_moves_and_left_out_where_it_does_no
     assert moving.penalty_scores["brick"][chosen] < moving.penalty_scores["brick"][float("inf")]
     assert not np.isfinite(still.penalties["brick"])
     data = _data(0.0)  # no warp: the ensemble's blend of the (here shrunk) centres, number for number
-    warp = EnsembleWarpInterpolator()
+    warp = EnsembleWarpInterpolator(texture=0.0)  # (the texture is tested on its own below)
     warp.fit(data)
     c = warp.fitted.centres["brick"]
     lo, hi = data.banks["brick"][1], data.banks["brick"][2]
@@ -320,8 +321,8 @@ def test_the_built_in_sets_shipped_table_is_what_a_fit_of_its_drops_chooses_now(
     ds = open_dataset("builtin:helmet-drops")
     shipped = VelocityTable.load(table_path(ds.path, reducer)).meta["source"]
     summary = Fit(training_data(ds, reducer)).summary()
-    assert shipped == {"trim": summary["trim"], "penalty": summary["penalty"], "shrink": summary["shrink"],
-                       "smooth": summary["smooth"]}
+    assert shipped == {"trim": summary["trim"], "texture": summary["texture"], "penalty": summary["penalty"],
+                       "shrink": summary["shrink"], "smooth": summary["smooth"]}
 
 
 def test_a_table_written_before_smoothing_was_offered_still_serves_and_describes_itself():
@@ -330,10 +331,109 @@ def test_a_table_written_before_smoothing_was_offered_still_serves_and_describes
     data = _data(12.0)
     table = tabulate(Fit(data))
     del table.meta["source"]["smooth"]  # as a dataset written by an older hapticfx carries it
-    assert describe(table).endswith("0 smoothed")
+    del table.meta["source"]["texture"]
+    assert describe(table).endswith("0 smoothed, texture 0.0")
     warp = EnsembleWarpInterpolator()
     warp.table = table
-    assert warp.describe()["centres smoothed"] == {}
+    assert warp.describe()["centres smoothed"] == {} and warp.describe()["texture"] == 0.0
     lo, hi = data.banks["brick"][1], data.banks["brick"][2]
     table.attach(data.banks["brick"], rebuild="(test)")
     assert np.all(np.isfinite(table.lookup(lo, hi, 2.7)))
+
+
+def _ringing(velocities=(2.0, 2.4, 2.8, 3.2, 3.6, 4.0, 4.4), drops: int = 8, seed: int = 0, ring: float = 0.3):
+    """One object whose drops share a slow pulse and each ring at 180-260 Hz with its own phase: their mean keeps
+    the pulse and loses most of the ringing, which each recorded drop has (``ring`` 0: no ringing, no noise)."""
+    rng = np.random.default_rng(seed)
+    v = np.array(velocities, dtype=np.float64)
+    t = np.arange(N) / 1000.0
+    d = np.empty((len(v), drops, N))
+    for k, x in enumerate(v):
+        for j in range(drops):
+            f, phase = rng.uniform(180, 260), rng.uniform(0, 2 * np.pi)
+            d[k, j] = _pulse(30, width=8.0, height=x) * (1 + 0.05 * rng.standard_normal() * (ring > 0)) \
+                + ring * x * np.sin(2 * np.pi * f * t + phase) * np.exp(-np.maximum(t - 0.03, 0) / 0.04) * (t > 0.02)
+    bank = ProfileBank("bell", "max-min", 1000.0, v, d[:, 0].copy())
+    return TrainingData({"bell": bank}, "max-min", "synthetic", {"bell": (v, d)})
+
+
+def test_the_highpass_keeps_the_detail_in_place_and_drops_the_slow_pulse():
+    t = np.arange(N) / 1000.0
+    pulse = _pulse(100, width=10.0)
+    burst = np.sin(2 * np.pi * 300 * (t - 0.1)) * np.exp(-0.5 * ((t - 0.1) / 0.01) ** 2)
+    out = highpass(pulse + burst, 1000.0)
+    assert np.abs(highpass(pulse, 1000.0)).max() < 5e-3  # nearly all of it below the corner
+    assert np.allclose(out, burst, atol=0.03 * np.abs(burst).max())  # 300 Hz passes (gain 0.988), in place
+    assert np.allclose(highpass(2 * burst, 1000.0), 2 * highpass(burst, 1000.0))
+    f = np.fft.rfftfreq(4096, 1e-3)
+    gain = np.abs(np.fft.rfft(highpass(np.eye(N)[N // 2], 1000.0), 4096))
+    assert np.isclose(np.interp(TEXTURE_HZ, f, gain), 0.5, atol=0.02)  # -6 dB at the corner
+    assert np.all(np.isfinite(highpass(np.zeros(N), 1000.0))) and not np.any(highpass(np.zeros(N), 1000.0))
+
+
+def test_a_fixed_texture_gives_back_the_representatives_detail_in_proportion_and_the_table_serves_it():
+    data = _ringing()
+    bank = data.banks["bell"]
+    fits = {b: Fit(data, texture=b) for b in (0.0, 0.2, 0.4)}
+    warps = {}
+    for b, fit in fits.items():
+        warps[b] = EnsembleWarpInterpolator(texture=b)
+        warps[b].fitted = fit
+        assert fit.texture == b and fit.summary()["texture"] == b
+    for i in range(len(bank) - 1):
+        lo, hi = bank[i], bank[i + 1]
+        for x in (lo.velocity, 0.5 * (lo.velocity + hi.velocity), hi.velocity - 1e-3):
+            p = {b: warps[b].interpolate(lo, hi, float(x)) for b in warps}
+            assert np.allclose(p[0.4] - p[0.0], 2 * (p[0.2] - p[0.0]), rtol=0, atol=1e-12)
+            gained = p[0.4] - p[0.0]
+            power, f = np.abs(np.fft.rfft(gained, 1024)) ** 2, np.fft.rfftfreq(1024, 1e-3)
+            assert power[f < TEXTURE_HZ / 2].sum() <= 0.01 * power.sum()  # what it gives back is the fine detail
+        assert np.array_equal(warps[0.4].interpolate(lo, hi, float(lo.velocity)), lo.samples)
+    table = tabulate(fits[0.4])
+    table.attach(bank, rebuild="(test)")
+    lo, hi = bank[2], bank[3]
+    s = max(np.abs(lo.samples).max(), np.abs(hi.samples).max())
+    for x in np.linspace(lo.velocity, hi.velocity, 9):
+        assert np.abs(table.lookup(lo, hi, float(x)) - warps[0.4].interpolate(lo, hi, float(x))).max() <= TOLERANCE * s
+    assert table.meta["source"]["texture"] == 0.4
+
+
+def test_texture_is_chosen_where_the_drops_mean_loses_their_detail_and_not_where_it_keeps_it():
+    ringing = Fit(_ringing())
+    chosen = ringing.texture_scores[str(ringing.texture)]
+    assert ringing.texture > 0.0
+    assert chosen["share"] >= KEEP_SHARE  # it keeps the bar's share of the gap to the drop mean's floor
+    assert chosen["spqi"] > ringing.texture_scores["0.0"]["spqi"]
+    plain = Fit(_ringing(ring=0.0))  # no detail the mean loses: every texture predicts the same, the least is taken
+    assert plain.texture == 0.0
+
+
+def test_a_texture_out_of_range_is_refused_and_one_fixed_apart_from_the_shipped_table_is_fitted(tmp_path):
+    from hapticfx.data.build import build_dataset
+    from hapticfx.data.dataset import open_dataset
+    from hapticfx.data.toy import toy_recordings
+    from hapticfx.errors import EffectError
+    from hapticfx.interpolators.ensemble_warp import table_path
+    from hapticfx.interpolators.table import VelocityTable
+    from hapticfx.models.datadriven import DataDrivenModel
+    from hapticfx.objects import PAPER_OBJECTS
+    from hapticfx.params import BuildContext
+
+    with pytest.raises(SignalError, match="interpolator_options.texture must be <= 1.0"):
+        EnsembleWarpInterpolator(texture=1.5)
+    recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], [2.42, 2.80, 3.13, 3.43, 3.96], drops=4, seed=1)]
+    ds = open_dataset(build_dataset(tmp_path / "ds", recs, name="w", rate_hz=1000.0, sensor={"model": "synthetic"},
+                                    provenance={"source": "test"}))
+    shipped = VelocityTable.load(table_path(ds.path, "max-min")).meta["source"]["texture"]
+
+    def model(**options):
+        params = DataDrivenModel.Params(dataset=str(ds.path), interpolator="ensemble-warp",
+                                        interpolator_options=options)
+        return DataDrivenModel(params, BuildContext(object_id="wood-beam")).describe()
+
+    assert model(texture=shipped)["served_from"]["table"] == str(table_path(ds.path, "max-min"))
+    other = model(texture=0.8 if shipped != 0.8 else 0.6)
+    assert other["served_from"]["table"] == "velocity table" and other["texture"] in (0.6, 0.8)
+    with pytest.raises(EffectError, match="texture"):
+        model(texture=float("nan"))
+

@@ -150,8 +150,12 @@ class EnsembleInterpolator(TableServed):
     fit_table = staticmethod(fit_table)  # what a subclass fits and where a dataset keeps it
     table_path = staticmethod(table_path)
 
+    def fixed(self) -> dict:
+        """The options an effect fixes instead of the fitted choice (None: fitted), as ``fit_table`` takes them."""
+        return {"trim": self.trim}
+
     def fit(self, data: TrainingData, **options) -> dict:
-        self.table = self.fit_table(data, trim=self.trim)
+        self.table = self.fit_table(data, **self.fixed())
         return {"trim": self.table.meta["source"]["trim"], "loo_rmse": self.table.meta["fit"]["loo_rmse"]}
 
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
@@ -167,13 +171,13 @@ class EnsembleInterpolator(TableServed):
             path = self.table_path(dataset.path, bank.reducer)
         if path is not None and (self.table_file is not None or path.is_file()):
             table = VelocityTable.load(path)
-            if self.trim is None or table.meta["source"].get("trim") == self.trim:
+            if all(v is None or table.meta["source"].get(k) == v for k, v in self.fixed().items()):
                 return table
         if dataset is None:
             raise DatasetError(f"the {self.name} interpolator needs its dataset's recorded drops or a fitted table")
         from ..data.training import training_data
 
-        return self.fit_table(training_data(dataset, bank.reducer), trim=self.trim)
+        return self.fit_table(training_data(dataset, bank.reducer), **self.fixed())
 
     def interpolate(self, lower: Profile, upper: Profile, velocity: float) -> np.ndarray:
         lo, hi, v = neighbours(lower, upper, velocity)

@@ -24,7 +24,7 @@ def describe(table) -> str:
     shrunk = sum(bool(s) for s in source["shrink"].values())
     smoothed = sum(s is not None for s in source.get("smooth", {}).values())  # none before smoothing was offered
     return (f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk, "
-            f"{smoothed} smoothed")
+            f"{smoothed} smoothed, texture {source.get('texture', 0.0)}")  # no texture before it was offered
 
 
 def save_tables(data: TrainingData, folder: Path, *, progress=None) -> list[Path]:
