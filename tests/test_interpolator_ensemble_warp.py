@@ -11,6 +11,7 @@ from hapticfx.interfaces import Profile, TrainingData
 from hapticfx.interpolators.ensemble_warp import (KEEP_SHARE, SMOOTHING, TEXTURE_HZ, TOLERANCE,
                                                  EnsembleWarpInterpolator, Fit, highpass, jackknife_noise,
                                                  shrunk_centres, smoothed_centres, tabulate)
+from hapticfx.interpolators.residual import scale
 from hapticfx.interpolators.warp import Morph, displacement, warp_path
 
 N = 200
@@ -436,4 +437,19 @@ def test_a_texture_out_of_range_is_refused_and_one_fixed_apart_from_the_shipped_
     assert other["served_from"]["table"] == "velocity table" and other["texture"] in (0.6, 0.8)
     with pytest.raises(EffectError, match="texture"):
         model(texture=float("nan"))
+
+
+def test_an_interval_the_table_cannot_follow_is_served_without_its_warp_and_the_fit_says_so():
+    data = _data(12.0)
+    fit = Fit(data, texture=0.0)
+    assert np.isfinite(fit.penalties["brick"])
+    bank = data.banks["brick"]
+    lo, hi = bank[1], bank[2]
+    warped = fit.residual("brick", lo.velocity, lo.samples, hi.samples, 0.5)
+    fit.unwarp("brick", 1)
+    c = fit.centres["brick"]
+    plain = (0.5 * c[1] + 0.5 * c[2] - 0.5 * lo.samples - 0.5 * hi.samples) / scale(lo.samples, hi.samples)
+    assert np.allclose(fit.residual("brick", lo.velocity, lo.samples, hi.samples, 0.5), plain, rtol=0, atol=1e-12)
+    assert not np.allclose(warped, plain)
+    assert fit.summary()["unwarped"] == ["brick 2.5-3 m/s"]
 

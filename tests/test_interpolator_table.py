@@ -109,6 +109,35 @@ def test_a_residual_that_never_settles_is_refused():
         _table(noisy, [_bank()])
 
 
+def test_a_rough_interval_is_tabulated_in_the_smoother_form_its_method_names():
+    bank = _bank()
+    rough = {1}  # interval 1's residual jumps in w until the method switches it to a smooth form
+    told = []
+
+    def fn(lower, upper, v_lo, v_hi, v, obj):
+        w = weight(v_lo, v_hi, v)[:, None]
+        jumps = np.isclose(v_lo, bank.velocities[1])[:, None] & (1 in rough)
+        return np.where(jumps & (w > 0.37), 1.0, 0.0) + curved(lower, upper, v_lo, v_hi, v, obj)
+
+    def on_rough(obj, i):
+        told.append((obj, i))
+        rough.discard(i)
+
+    table = _table(fn, [bank], tolerance=1e-6, on_rough=on_rough)
+    assert told == [("brick", 1)]
+    table.attach(bank, rebuild="x")
+    v = float(np.mean(bank.velocities[1:3]))
+    lo, hi, direct = _direct(fn, bank, v)
+    assert np.abs(table.lookup(lo, hi, v) - direct).max() <= 1e-6 * np.abs(bank.profiles).max()
+    rough.add(1)
+
+    def still_rough(obj, i):
+        told.append((obj, i))
+
+    with pytest.raises(CheckpointError, match="not smooth enough to tabulate"):  # once only, then refused
+        _table(fn, [bank], tolerance=1e-6, on_rough=still_rough)
+
+
 def test_file_round_trip_and_stale_tables_are_refused(tmp_path):
     bank = _bank()
     path = _table(curved, [bank]).save(tmp_path / "t.table.npz")

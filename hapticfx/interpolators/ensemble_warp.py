@@ -389,6 +389,7 @@ class Fit:
             self.texture, self.texture_scores = choose_texture(objects, self.penalties, pools, paths)
         self.centres = {obj: pools[obj](o.velocities, o.centres, o.noise) for obj, o in objects.items()}
         self._rate = {obj: o.rate_hz for obj, o in objects.items()}
+        self.unwarped: list[tuple[str, int]] = []  # intervals a table serves without their warp (:meth:`unwarp`)
         self._morphs: dict[tuple[str, int], Morph] = {}
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
 
@@ -405,8 +406,17 @@ class Fit:
         """The morph from the centre at recorded velocity ``i`` of ``obj`` to the one at ``i + 1``."""
         key = (obj, i)
         if key not in self._morphs:
-            self._morphs[key] = morph(self.centres[obj][i], self.centres[obj][i + 1], self.penalties[obj])
+            penalty = float("inf") if key in self.unwarped else self.penalties[obj]
+            self._morphs[key] = morph(self.centres[obj][i], self.centres[obj][i + 1], penalty)
         return self._morphs[key]
+
+    def unwarp(self, obj: str, i: int) -> None:
+        """Blend ``obj``'s centres ``i`` and ``i + 1`` without their warp from now on. Where the alignment moves an
+        event by nearly as much as the event lasts, the morph turns sharply near ``w`` = 1 and no table of
+        reasonable size follows it (:func:`hapticfx.interpolators.table.tabulate_interval`); that interval is
+        then served as ``ensemble`` serves it, and the fit says so (``unwarped`` in its summary)."""
+        self.unwarped.append((obj, i))
+        self._morphs.pop((obj, i), None)
 
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
         """``r`` of :mod:`hapticfx.interpolators.residual` at ``w`` between ``lower`` (at ``v_lo``) and ``upper``."""
@@ -437,6 +447,8 @@ class Fit:
                 "shrunk_objects": sum(self.shrink.values()),
                 "smooth": dict(self.smooth), "pooled_smooth": self.pooled_smooth,
                 "smoothed_objects": sum(s is not None for s in self.smooth.values()),
+                "unwarped": [f"{obj} {v[i]:g}-{v[i + 1]:g} m/s" for obj, i in self.unwarped
+                             for v in [self.data.banks[obj].velocities]],
                 "loo_rmse": self.trim_scores,
                 "penalty_loo_rmse": {obj: {("inf" if not np.isfinite(p) else str(p)): x for p, x in own.items()}
                                      for obj, own in self.penalty_scores.items()},
@@ -461,7 +473,7 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
                         source={"trim": fit.trim, "texture": fit.texture, "penalty": fit.summary()["penalty"],
                                 "shrink": dict(fit.shrink), "smooth": dict(fit.smooth)},
-                        dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress)
+                        dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress, on_rough=fit.unwarp)
     table.meta["fit"] = fit.summary()
     return table
 

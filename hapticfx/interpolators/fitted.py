@@ -23,8 +23,10 @@ def describe(table) -> str:
     warped = sum(p is not None for p in source["penalty"].values())
     shrunk = sum(bool(s) for s in source["shrink"].values())
     smoothed = sum(s is not None for s in source.get("smooth", {}).values())  # none before smoothing was offered
+    unwarped = table.meta.get("fit", {}).get("unwarped", [])
     return (f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk, "
-            f"{smoothed} smoothed, texture {source.get('texture', 0.0)}")  # no texture before it was offered
+            f"{smoothed} smoothed, texture {source.get('texture', 0.0)}"  # no texture before it was offered
+            + (f"; served without the warp: {', '.join(unwarped)}" if unwarped else ""))
 
 
 def save_tables(data: TrainingData, folder: Path, *, progress=None) -> list[Path]:

@@ -278,13 +278,16 @@ def _intervals(meta: dict, arrays: dict) -> dict[str, list[Interval]]:
 
 
 def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, source: dict, dataset: str,
-                tolerance: float = DEFAULT_TOLERANCE, progress: Callable[[str], None] | None = None) -> VelocityTable:
+                tolerance: float = DEFAULT_TOLERANCE, progress: Callable[[str], None] | None = None,
+                on_rough: Callable[[str, int], None] | None = None) -> VelocityTable:
     """Tabulate ``residual_fn`` over every recorded interval of ``banks`` (one per object, one reducer).
 
     Each interval starts with the nodes ``w`` = 0 and 1 and doubles the number of
     Chebyshev-Lobatto nodes until the polynomial through them misses the method by
     at most ``tolerance`` (relative to the neighbours' larger peak) at the points of
-    four times the degree.
+    four times the degree. An interval that does not get there is refused, unless the
+    method has a smoother form for it: ``on_rough(object, i)`` is then told (interval
+    ``i``, from recorded velocity ``i`` to ``i + 1``) and it is tabulated once more.
     """
     banks = {b.object: b for b in banks}
     if not banks:
@@ -292,13 +295,19 @@ def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, 
     say = progress or (lambda message: None)
     intervals = {}
     for obj, bank in banks.items():
-        intervals[obj] = [_tabulate(bank, i, residual_fn, tolerance) for i in range(len(bank) - 1)]
+        intervals[obj] = [_tabulate(bank, i, residual_fn, tolerance, on_rough) for i in range(len(bank) - 1)]
         say(f"{obj}: {len(intervals[obj])} intervals, {sum(len(iv.w) for iv in intervals[obj])} nodes")
     return VelocityTable.of(banks, intervals, interpolator=interpolator, source=source, dataset=dataset,
                             tolerance=tolerance)
 
 
-def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float) -> Interval:
+def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float, on_rough) -> Interval:
+    try:
+        return tabulate_interval(bank[i], bank[i + 1], residual_fn, tolerance, obj=bank.object)
+    except CheckpointError:
+        if on_rough is None:
+            raise
+    on_rough(bank.object, i)
     return tabulate_interval(bank[i], bank[i + 1], residual_fn, tolerance, obj=bank.object)
 
 
