@@ -294,70 +294,77 @@ TEXTURE_MEASURES = ("lsd", "stsim", "spqi")
 def choose_texture(objects: dict[str, _Object], penalties: dict[str, float], pools: dict, paths: dict):
     """The dataset's texture ``beta`` from :data:`TEXTURES`, and each one's mean scores (module docs).
 
-    Each training target left out is predicted as the fit predicts it (the object's penalty, its centres pooled
-    as ``pools[obj](velocities, centres, noise)``) with each ``beta``, and scored against every one of its drops
-    by log-spectral distance, ST-SIM and SPQI, beside linear (the blend of the representatives), and by RMSE
-    against their mean. A ``beta`` is admissible while it keeps :data:`KEEP_SHARE` of the gap between linear and
-    the drop means' sampling floor over every object's targets (0 always is: where the centres themselves fall
-    short of the bar's share, no RMSE is given up for the spectral measures). Of the admissible, the one taken
-    passes the most of the bench's four criteria in expectation over :data:`BOOTSTRAP` resamples of the targets
-    (seeded): that share kept against the drop mean, and against the representative (floor: the mean of the
-    other drops), log-spectral distance no worse than linear's, ST-SIM and SPQI no worse than linear's (sums over
-    the targets, as the bench compares). The least ``beta`` breaks a tie. A ``beta`` that only just passes
-    on these targets is as likely as not to fail on others, which the expectation weighs. The measures are
-    imported here: a fit needs them, an effect served from its table does not.
+    Each training target left out is predicted as the fit predicts it with each ``beta`` and scored as the bench
+    scores it (:func:`_texture_folds`). A ``beta`` is admissible while it keeps :data:`KEEP_SHARE` of the gap
+    between linear and the drop means' sampling floor over every object's targets (0 always is: where the
+    centres themselves fall short of the bar's share, no RMSE is given up for the spectral measures). Of the
+    admissible, the one taken passes the most of the bench's four criteria in expectation over
+    :data:`BOOTSTRAP` resamples of the targets (seeded): that share kept against the drop mean, and against the
+    representative (floor: the mean of the other drops), log-spectral distance no worse than linear's, ST-SIM
+    and SPQI no worse than linear's (sums over the targets, as the bench compares). The least ``beta`` breaks a
+    tie. A ``beta`` that only just passes on these targets is as likely as not to fail on others, which the
+    expectation weighs.
     """
+    folds, floors = _texture_folds(objects, penalties, pools, paths)
+    if not len(floors):
+        return 0.0, {}
+    lin = folds["linear"]
+    idx = np.random.default_rng(0).integers(0, len(floors), size=(BOOTSTRAP, len(floors)))
+    lin_boot, floor_boot = lin[idx].sum(axis=1), floors[idx].sum(axis=1)
+    gap = lin[:, 3].sum() - floors[:, 0].sum()
+    means = {}
+    for b, v in folds.items():
+        m = dict(zip((*TEXTURE_MEASURES, "rmse_mean", "rmse_rep"), v.mean(axis=0).tolist()))
+        m["share"] = float((lin[:, 3].sum() - v[:, 3].sum()) / gap) if gap > 0 else float("nan")
+        if b != "linear":
+            got = v[idx].sum(axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                shares = (lin_boot[:, 3:5] - got[:, 3:5]) / (lin_boot[:, 3:5] - floor_boot)
+            passed = (np.sum(shares >= KEEP_SHARE, axis=1) + (got[:, 0] <= lin_boot[:, 0])
+                      + ((got[:, 1] >= lin_boot[:, 1]) & (got[:, 2] >= lin_boot[:, 2])))
+            m["expected_criteria"] = float(np.mean(passed))
+        means[str(b)] = m
+    admissible = [b for b in TEXTURES if b == 0.0 or means[str(b)]["share"] >= KEEP_SHARE]
+    best = max(round(means[str(b)]["expected_criteria"], 9) for b in admissible)
+    return next(b for b in admissible if round(means[str(b)]["expected_criteria"], 9) == best), means
+
+
+def _texture_folds(objects: dict[str, _Object], penalties: dict[str, float], pools: dict, paths: dict):
+    """Per row (``"linear"``, then each ``beta``) an array ``(targets, 5)``: log-spectral distance, ST-SIM and SPQI
+    against every drop of the left-out target (means), RMSE against their mean and against the representative;
+    and the floors ``(targets, 2)``: the drop mean's sampling error, the other drops' mean against the
+    representative. Each target is predicted from the centres of the velocities that remain, pooled as
+    ``pools[obj](velocities, centres, noise)``, with the object's penalty. The measures are imported here: a fit
+    needs them, an effect served from its table does not."""
     from ..processing.likeness import log_spectral_distance, mean_sampling_rmse
     from ..processing.perceptual import prepare, spqi, st_sim
 
     rows: dict = {b: [] for b in ("linear", *TEXTURES)}
-    floor = []
+    floors = []
     for obj, o in objects.items():
-        p = penalties[obj]
         for i in o.scored:
             keep = np.arange(len(o.velocities)) != i
             c = pools[obj](o.velocities[keep], o.centres[keep], o.noise[keep])
-            vs, reps, drops = o.velocities[keep], o.reps[keep], o.drops[i]
+            vs, reps, drops, rep = o.velocities[keep], o.reps[keep], o.drops[i], o.reps[i]
             w = float((o.velocities[i] - vs[i - 1]) / (vs[i] - vs[i - 1]))
-            blend = (1 - w) * reps[i - 1] + w * reps[i]
-            diff = morph(c[i - 1], c[i], p, paths)(w) - blend
+            blend = (1 - w) * reps[i - 1] + w * reps[i]  # in the kept arrays, i's neighbours are i - 1 and i
+            diff = morph(c[i - 1], c[i], penalties[obj], paths)(w) - blend
             fine = highpass(diff, o.rate_hz)
             refs = [prepare(d, rate_hz=o.rate_hz) for d in drops]
-
-            rep = int(np.argmin(np.sum((drops - o.reps[i]) ** 2, axis=1)))  # the drop the bank keeps
 
             def measured(pred):
                 x = prepare(pred, rate_hz=o.rate_hz)
                 return (float(np.mean(log_spectral_distance(pred, drops, rate_hz=o.rate_hz))),
                         float(np.mean([st_sim(x, r) for r in refs])), float(np.mean([spqi(x, r) for r in refs])),
-                        _rmse(pred, o.means[i]), _rmse(pred, o.reps[i]))
+                        _rmse(pred, o.means[i]), _rmse(pred, rep))
 
             rows["linear"].append(measured(blend))
-            floor.append((mean_sampling_rmse(drops),
-                          _rmse(np.delete(drops, rep, axis=0).mean(axis=0), o.reps[i]) if len(drops) > 1 else np.nan))
             for b in TEXTURES:
                 rows[b].append(measured(blend + 4 * w * (1 - w) * (diff - b * fine)))
-    if not rows["linear"]:
-        return 0.0, {}
-    folds = {b: np.array(v) for b, v in rows.items()}  # (targets, 5): lsd, stsim, spqi, rmse_mean, rmse_rep
-    floors = np.array(floor)  # (targets, 2): the drop mean's sampling error, the other drops' mean against the rep
-    idx = np.random.default_rng(0).integers(0, len(floors), size=(BOOTSTRAP, len(floors)))
-    lin, lin_floor = folds["linear"][idx].sum(axis=1), floors[idx].sum(axis=1)
-    means = {}
-    for b, v in folds.items():
-        m = dict(zip((*TEXTURE_MEASURES, "rmse_mean", "rmse_rep"), v.mean(axis=0).tolist()))
-        gap = folds["linear"][:, 3].sum() - floors[:, 0].sum()
-        m["share"] = float((folds["linear"][:, 3].sum() - v[:, 3].sum()) / gap) if gap > 0 else float("nan")
-        if b != "linear":
-            got = v[idx].sum(axis=1)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                shares = (lin[:, 3:5] - got[:, 3:5]) / (lin[:, 3:5] - lin_floor)
-            m["expected_criteria"] = float(np.mean(np.sum(shares >= KEEP_SHARE, axis=1) + (got[:, 0] <= lin[:, 0])
-                                                   + ((got[:, 1] >= lin[:, 1]) & (got[:, 2] >= lin[:, 2]))))
-        means[str(b)] = m
-    admissible = [b for b in TEXTURES if b == 0.0 or means[str(b)]["share"] >= KEEP_SHARE]
-    best = max(round(means[str(b)]["expected_criteria"], 9) for b in admissible)
-    return next(b for b in admissible if round(means[str(b)]["expected_criteria"], 9) == best), means
+            kept = int(np.argmin(np.sum((drops - rep) ** 2, axis=1)))  # the drop the bank keeps
+            others = np.delete(drops, kept, axis=0)
+            floors.append((mean_sampling_rmse(drops), _rmse(others.mean(axis=0), rep) if len(others) else np.nan))
+    return {b: np.array(v) for b, v in rows.items()}, np.array(floors)
 
 
 class Fit:
