@@ -45,19 +45,16 @@ the profile changes fast, which the same leave-one-out choice weighs. It is not
 offered where a warp was chosen: a smoother in raw time blurs events that move.
 
 Last, for the whole dataset: how much **texture** the profile keeps, the share
-``beta`` of the representatives' content above :data:`TEXTURE_HZ` that the
-centre does not replace::
+``beta`` of the representatives' content above 100 Hz that the centre does not
+replace (:mod:`hapticfx.interpolators.texture`)::
 
-    centre'(w) = centre(w) + beta highpass(blend(w) - centre(w))
+    centre'(w) = centre(w) + beta fine(blend(w) - centre(w))
 
 A mean of drops that ring out of phase is duller above about 100 Hz than any
-recorded drop, and on the vibrotactile field's spectral measures (log-spectral
-distance, ST-SIM and SPQI against every drop) it can score below linear's blend of
-two recorded drops, while it is nearest their mean in RMSE. ``beta`` trades the
-one for the other, chosen on the same left-out training velocities
-(:func:`choose_texture`): of :data:`TEXTURES`, the one most likely to keep
-:data:`KEEP_SHARE` of the gap between linear and the drop means' sampling floor
-and be no worse than linear on the three, judged by resampling those velocities.
+recorded drop, and on the vibrotactile field's spectral measures it can score below
+linear's blend of two recorded drops, while it is nearest their mean in RMSE.
+``beta`` trades the one for the other, chosen on the same left-out training
+velocities (:func:`texture_targets`).
 
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
@@ -80,6 +77,7 @@ from . import ensemble
 from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
 from .residual import compose, scale
 from .table import VelocityTable, build_table, neighbours
+from .texture import Target, choose as choose_texture, keep as keep_texture
 
 if TYPE_CHECKING:
     from .warp import Morph
@@ -272,99 +270,19 @@ def choose_smoothing(objects: dict[str, _Object], penalties: dict[str, float], s
     return {obj: chosen.get(obj) for obj in objects}, pooled, means
 
 
-TEXTURE_HZ = 100.0
-TEXTURES = (0.0, 0.2, 0.4, 0.6, 0.8)
-KEEP_SHARE = 0.6  # of the gap between linear and the drop means' sampling floor (the bar of the bench's protocol)
-BOOTSTRAP = 500  # resamples of the left-out training targets
-
-
-def highpass(x: np.ndarray, rate_hz: float) -> np.ndarray:
-    """``x`` ``(..., N)`` above :data:`TEXTURE_HZ`: zero phase, gain ``1 / (1 + (f_c / f)^4)`` (-6 dB at the
-    corner, 0 at DC), on a transform twice the profile's length so that its end does not wrap onto its start."""
-    n = x.shape[-1]
-    f = np.fft.rfftfreq(2 * n, 1.0 / rate_hz)
-    gain = np.zeros_like(f)
-    gain[1:] = 1.0 / (1.0 + (TEXTURE_HZ / f[1:]) ** 4)
-    return np.fft.irfft(np.fft.rfft(x, 2 * n, axis=-1) * gain, 2 * n, axis=-1)[..., :n]
-
-
-TEXTURE_MEASURES = ("lsd", "stsim", "spqi")
-
-
-def choose_texture(objects: dict[str, _Object], penalties: dict[str, float], pools: dict, paths: dict):
-    """The dataset's texture ``beta`` from :data:`TEXTURES`, and each one's mean scores (module docs).
-
-    Each training target left out is predicted as the fit predicts it with each ``beta`` and scored as the bench
-    scores it (:func:`_texture_folds`). A ``beta`` is admissible while it keeps :data:`KEEP_SHARE` of the gap
-    between linear and the drop means' sampling floor over every object's targets (0 always is: where the
-    centres themselves fall short of the bar's share, no RMSE is given up for the spectral measures). Of the
-    admissible, the one taken passes the most of the bench's four criteria in expectation over
-    :data:`BOOTSTRAP` resamples of the targets (seeded): that share kept against the drop mean, and against the
-    representative (floor: the mean of the other drops), log-spectral distance no worse than linear's, ST-SIM
-    and SPQI no worse than linear's (sums over the targets, as the bench compares). The least ``beta`` breaks a
-    tie. A ``beta`` that only just passes on these targets is as likely as not to fail on others, which the
-    expectation weighs.
-    """
-    folds, floors = _texture_folds(objects, penalties, pools, paths)
-    if not len(floors):
-        return 0.0, {}
-    lin = folds["linear"]
-    idx = np.random.default_rng(0).integers(0, len(floors), size=(BOOTSTRAP, len(floors)))
-    lin_boot, floor_boot = lin[idx].sum(axis=1), floors[idx].sum(axis=1)
-    gap = lin[:, 3].sum() - floors[:, 0].sum()
-    means = {}
-    for b, v in folds.items():
-        m = dict(zip((*TEXTURE_MEASURES, "rmse_mean", "rmse_rep"), v.mean(axis=0).tolist()))
-        m["share"] = float((lin[:, 3].sum() - v[:, 3].sum()) / gap) if gap > 0 else float("nan")
-        if b != "linear":
-            got = v[idx].sum(axis=1)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                shares = (lin_boot[:, 3:5] - got[:, 3:5]) / (lin_boot[:, 3:5] - floor_boot)
-            passed = (np.sum(shares >= KEEP_SHARE, axis=1) + (got[:, 0] <= lin_boot[:, 0])
-                      + ((got[:, 1] >= lin_boot[:, 1]) & (got[:, 2] >= lin_boot[:, 2])))
-            m["expected_criteria"] = float(np.mean(passed))
-        means[str(b)] = m
-    admissible = [b for b in TEXTURES if b == 0.0 or means[str(b)]["share"] >= KEEP_SHARE]
-    best = max(round(means[str(b)]["expected_criteria"], 9) for b in admissible)
-    return next(b for b in admissible if round(means[str(b)]["expected_criteria"], 9) == best), means
-
-
-def _texture_folds(objects: dict[str, _Object], penalties: dict[str, float], pools: dict, paths: dict):
-    """Per row (``"linear"``, then each ``beta``) an array ``(targets, 5)``: log-spectral distance, ST-SIM and SPQI
-    against every drop of the left-out target (means), RMSE against their mean and against the representative;
-    and the floors ``(targets, 2)``: the drop mean's sampling error, the other drops' mean against the
-    representative. Each target is predicted from the centres of the velocities that remain, pooled as
-    ``pools[obj](velocities, centres, noise)``, with the object's penalty. The measures are imported here: a fit
-    needs them, an effect served from its table does not."""
-    from ..processing.likeness import log_spectral_distance, mean_sampling_rmse
-    from ..processing.perceptual import prepare, spqi, st_sim
-
-    rows: dict = {b: [] for b in ("linear", *TEXTURES)}
-    floors = []
+def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], pools: dict, paths: dict):
+    """Every object's training targets, each left out and predicted as the fit predicts it (the object's penalty,
+    its centres pooled as ``pools[obj](velocities, centres, noise)`` among the velocities that remain), as
+    :func:`hapticfx.interpolators.texture.choose` takes them."""
     for obj, o in objects.items():
         for i in o.scored:
             keep = np.arange(len(o.velocities)) != i
             c = pools[obj](o.velocities[keep], o.centres[keep], o.noise[keep])
-            vs, reps, drops, rep = o.velocities[keep], o.reps[keep], o.drops[i], o.reps[i]
+            vs, reps = o.velocities[keep], o.reps[keep]
             w = float((o.velocities[i] - vs[i - 1]) / (vs[i] - vs[i - 1]))
             blend = (1 - w) * reps[i - 1] + w * reps[i]  # in the kept arrays, i's neighbours are i - 1 and i
             diff = morph(c[i - 1], c[i], penalties[obj], paths)(w) - blend
-            fine = highpass(diff, o.rate_hz)
-            refs = [prepare(d, rate_hz=o.rate_hz) for d in drops]
-
-            def measured(pred):
-                x = prepare(pred, rate_hz=o.rate_hz)
-                return (float(np.mean(log_spectral_distance(pred, drops, rate_hz=o.rate_hz))),
-                        float(np.mean([st_sim(x, r) for r in refs])), float(np.mean([spqi(x, r) for r in refs])),
-                        _rmse(pred, o.means[i]), _rmse(pred, rep))
-
-            rows["linear"].append(measured(blend))
-            for b in TEXTURES:
-                rows[b].append(measured(blend + 4 * w * (1 - w) * (diff - b * fine)))
-            kept = int(np.argmin(np.sum((drops - rep) ** 2, axis=1)))  # the drop the bank keeps
-            others = np.delete(drops, kept, axis=0)
-            floors.append((mean_sampling_rmse(drops), _rmse(others.mean(axis=0), rep) if len(others) else np.nan))
-    return {b: np.array(v) for b, v in rows.items()}, np.array(floors)
+            yield Target(w, blend, diff, o.drops[i], o.means[i], o.reps[i], o.rate_hz)
 
 
 class Fit:
@@ -393,7 +311,7 @@ class Fit:
         pools = {obj: self._pool(obj, paths) for obj in objects}
         self.texture, self.texture_scores = texture, None
         if texture is None:
-            self.texture, self.texture_scores = choose_texture(objects, self.penalties, pools, paths)
+            self.texture, self.texture_scores = choose_texture(texture_targets(objects, self.penalties, pools, paths))
         self.centres = {obj: pools[obj](o.velocities, o.centres, o.noise) for obj, o in objects.items()}
         self._rate = {obj: o.rate_hz for obj, o in objects.items()}
         self.unwarped: list[tuple[str, int]] = []  # intervals a table serves without their warp (:meth:`unwarp`)
@@ -428,9 +346,7 @@ class Fit:
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
         """``r`` of :mod:`hapticfx.interpolators.residual` at ``w`` between ``lower`` (at ``v_lo``) and ``upper``."""
         diff = self.morph(obj, self._index[(obj, float(v_lo))])(w) - (1 - w) * lower - w * upper
-        if self.texture:
-            diff = diff - self.texture * highpass(diff, self._rate[obj])
-        return diff / scale(lower, upper)
+        return keep_texture(diff, self.texture, self._rate[obj]) / scale(lower, upper)
 
     def find(self, lower, upper) -> str | None:
         """The object whose recorded neighbours ``lower`` and ``upper`` are (None: not fitted)."""
@@ -547,7 +463,6 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
                                      for obj, s in source.get("smooth", {}).items()}}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "choose_smoothing", "choose_texture", "fit_table",
-           "highpass", "jackknife_noise", "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate",
-           "table_path", "KEEP_SHARE", "MIN_FOLDS", "PENALTIES", "SHRINK", "SMOOTHING", "TEXTURE_HZ", "TEXTURES",
-           "TOLERANCE"]
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "choose_smoothing", "fit_table", "jackknife_noise",
+           "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate", "table_path",
+           "texture_targets", "MIN_FOLDS", "PENALTIES", "SHRINK", "SMOOTHING", "TOLERANCE"]
