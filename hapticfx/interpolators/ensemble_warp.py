@@ -167,11 +167,17 @@ def smoothed_centres(velocities: np.ndarray, c: np.ndarray, strength: float) -> 
     return np.linalg.solve(np.eye(n) + strength * d2.T @ d2, x)
 
 
+def _blend_and_centre(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, paths: dict):
+    """At ``v`` between the neighbours ``lo`` and ``hi``: ``w``, the blend of the representatives ``reps`` and the
+    morph of the centres ``c``."""
+    w = float((v - velocities[lo]) / (velocities[hi] - velocities[lo]))
+    return w, (1 - w) * reps[lo] + w * reps[hi], morph(c[lo], c[hi], penalty, paths)(w)
+
+
 def _predict(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, paths: dict) -> np.ndarray:
     """The profile at ``v`` from the neighbours ``lo`` and ``hi``: representatives ``reps``, centres ``c``."""
-    w = float((v - velocities[lo]) / (velocities[hi] - velocities[lo]))
-    blend = (1 - w) * reps[lo] + w * reps[hi]
-    return blend + 4 * w * (1 - w) * (morph(c[lo], c[hi], penalty, paths)(w) - blend)
+    w, blend, centre = _blend_and_centre(reps, c, velocities, lo, hi, v, penalty, paths)
+    return blend + 4 * w * (1 - w) * (centre - blend)
 
 
 @dataclass(frozen=True)
@@ -222,17 +228,21 @@ def penalty_folds(objects: dict[str, _Object], paths: dict) -> dict[str, dict[fl
             for obj, o in objects.items()}
 
 
-def _left_out(o: _Object, penalty: float, paths: dict, pool) -> list[float]:
-    """Each of ``o``'s training targets left out and predicted from the centres of the velocities that remain, as
-    ``pool(velocities, centres, noise)`` pools them: the RMSE against the target's drop mean, per target."""
-    out = []
+def _left_out_targets(o: _Object, penalty: float, paths: dict, pool):
+    """Each of ``o``'s training targets ``i`` left out, from the centres of the velocities that remain as
+    ``pool(velocities, centres, noise)`` pools them: ``(i, w, blend, centre)`` (:func:`_blend_and_centre`)."""
     for i in o.scored:
         keep = np.arange(len(o.velocities)) != i
         c = pool(o.velocities[keep], o.centres[keep], o.noise[keep])
         # in the kept arrays, i's neighbours are i - 1 and i
-        out.append(_rmse(_predict(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], penalty, paths),
-                         o.means[i]))
-    return out
+        yield i, *_blend_and_centre(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], penalty, paths)
+
+
+def _left_out(o: _Object, penalty: float, paths: dict, pool) -> list[float]:
+    """Each of ``o``'s training targets left out and predicted (:func:`_left_out_targets`): the RMSE against the
+    target's drop mean, per target."""
+    return [_rmse(blend + 4 * w * (1 - w) * (centre - blend), o.means[i])
+            for i, w, blend, centre in _left_out_targets(o, penalty, paths, pool)]
 
 
 def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
@@ -275,14 +285,8 @@ def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], po
     its centres pooled as ``pools[obj](velocities, centres, noise)`` among the velocities that remain), as
     :func:`hapticfx.interpolators.texture.choose` takes them."""
     for obj, o in objects.items():
-        for i in o.scored:
-            keep = np.arange(len(o.velocities)) != i
-            c = pools[obj](o.velocities[keep], o.centres[keep], o.noise[keep])
-            vs, reps = o.velocities[keep], o.reps[keep]
-            w = float((o.velocities[i] - vs[i - 1]) / (vs[i] - vs[i - 1]))
-            blend = (1 - w) * reps[i - 1] + w * reps[i]  # in the kept arrays, i's neighbours are i - 1 and i
-            diff = morph(c[i - 1], c[i], penalties[obj], paths)(w) - blend
-            yield Target(w, blend, diff, o.drops[i], o.means[i], o.reps[i], o.rate_hz)
+        for i, w, blend, centre in _left_out_targets(o, penalties[obj], paths, pools[obj]):
+            yield Target(w, blend, centre - blend, o.drops[i], o.means[i], o.reps[i], o.rate_hz)
 
 
 class Fit:

@@ -23,6 +23,8 @@ from typing import Iterable
 
 import numpy as np
 
+from .residual import bump
+
 TEXTURE_HZ = 100.0
 TEXTURES = (0.0, 0.2, 0.4, 0.6, 0.8)
 KEEP_SHARE = 0.6  # of the gap between linear and a floor: the bar of the bench's generalisation protocol
@@ -119,9 +121,8 @@ def score(targets: Iterable[Target]) -> tuple[dict, np.ndarray]:
                     float(rmse(pred, t.mean)), float(rmse(pred, t.rep)))
 
         rows["linear"].append(measured(t.blend))
-        detail = fine(t.diff, t.rate_hz)
         for b in TEXTURES:
-            rows[b].append(measured(t.blend + 4 * t.w * (1 - t.w) * (t.diff - b * detail)))
+            rows[b].append(measured(t.blend + bump(t.w) * keep(t.diff, b, t.rate_hz)))
         kept = int(np.argmin(np.sum((t.drops - t.rep) ** 2, axis=1)))  # the drop the bank keeps
         others = np.delete(t.drops, kept, axis=0)
         floors.append((mean_sampling_rmse(t.drops), float(rmse(others.mean(axis=0), t.rep)) if len(others) else np.nan))
