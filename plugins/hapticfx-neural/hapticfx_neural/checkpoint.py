@@ -138,6 +138,20 @@ def check_meta(meta: dict, where: Path) -> None:
          "a mapping with the dataset's name and reducer")
     need("weights_sha256", isinstance(meta.get("weights_sha256"), str)
          and re.fullmatch(r"[0-9a-f]{64}", meta["weights_sha256"]) is not None, "the weights' SHA-256 (64 hex digits)")
+    texture = meta.get("texture")
+    need("texture", texture is None or (isinstance(texture, dict) and finite(texture.get("share"))
+                                        and 0 <= texture["share"] <= 1 and finite(texture.get("rate_hz"))
+                                        and texture["rate_hz"] > 0),
+         "a mapping with a share in [0, 1] and the banks' positive rate_hz")
+
+
+def table_source(meta: dict) -> dict:
+    """What a velocity table of the checkpoint ``meta`` is built from, and checked against when it is read: the
+    weights, and the texture where one is kept (a table written before textures records none)."""
+    source = {"weights_sha256": meta.get("weights_sha256")}
+    if meta.get("texture"):
+        source["texture"] = meta["texture"]["share"]
+    return source
 
 
 def load_tensors(path: Path, *, sha256: str | None = None) -> dict:

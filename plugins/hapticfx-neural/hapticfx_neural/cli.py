@@ -56,6 +56,10 @@ def train(
     t = meta["training"]
     typer.echo(f"{cfg.interpolator}: {t['epochs_run']} epochs in {t['train_time_s']:.1f} s, best epoch {t['best_epoch']} "
                f"(validation RMSE {t['best_val_rmse_normalised']:.4f} normalised), {meta['parameters']:,} parameters")
+    if meta.get("texture"):
+        kept = meta["texture"]
+        typer.echo(f"texture: its profiles keep {kept['share']:g} of the neighbours' detail above 100 Hz "
+                   f"({kept['chosen_on']})")
     typer.echo(f"wrote {path}" + (f" and its velocity table {checkpoint.table_path(path).name}"
                                   if checkpoint.table_path(path).is_file() else ""))
     if curves is not None:

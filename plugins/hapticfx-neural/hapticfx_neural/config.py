@@ -41,7 +41,10 @@ TRAINING_DEFAULTS = {
     "patience": 30, "seed": 0, "threads": 1, "augment": True, "input_drops": None,
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
-            "gaps", "trim", "init", "model", "training", "out")
+            "gaps", "trim", "texture", "init", "model", "training", "out")
+# How much of the recorded neighbours' fine detail a trained network's profiles keep (the core's
+# hapticfx.interpolators.texture): a share in [0, 1], or CHOOSE to pick it on the validation targets after training.
+CHOOSE = "choose"
 MAX_GAP = 16
 
 
@@ -57,6 +60,7 @@ class TrainConfig:
     holdout_velocities: list[float] = field(default_factory=list)
     gaps: list[int] = field(default_factory=lambda: [1])
     trim: float = 0.0
+    texture: float | str = 0.0
     init: str | None = None
     model: dict = field(default_factory=dict)
     training: dict = field(default_factory=dict)
@@ -86,6 +90,12 @@ class TrainConfig:
             raise EffectError("expected a number in [0, 0.5): the fraction of drops cut at each end, per sample, "
                               "for a velocity's centre (0: the mean)", source=self.source, key="trim")
         self.trim = float(self.trim)
+        if self.texture != CHOOSE:
+            if isinstance(self.texture, bool) or not (isinstance(self.texture, (int, float)) and 0 <= self.texture <= 1):
+                raise EffectError(f"expected a number in [0, 1] (the share of the neighbours' detail above 100 Hz the "
+                                  f"profiles keep) or {CHOOSE} (chosen on the validation targets)", source=self.source,
+                                  key="texture")
+            self.texture = float(self.texture)
         if self.init is not None and not isinstance(self.init, str):
             raise EffectError("expected a checkpoint path (string)", source=self.source, key="init")
         if self.objects is not None and not (isinstance(self.objects, list) and all(isinstance(o, str) for o in self.objects)):

@@ -83,7 +83,7 @@ class NeuralInterpolator(TableServed):
         init = options.get("init", cfg.init)
         self.net, self.meta = train_network(
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
-            label=options.get("label"), init=None if init is None else checkpoint.resolve(init),
+            label=options.get("label"), init=None if init is None else checkpoint.resolve(init), texture=cfg.texture,
             dataset_meta={"name": data.dataset, "reducer": data.reducer, "objects": list(data.banks),
                           "targets": targets, "gaps": list(cfg.gaps), "trim": cfg.trim})
         self.net = self.net.double()  # served in float64, like its table
@@ -91,7 +91,8 @@ class NeuralInterpolator(TableServed):
         self.centres = Centres(cfg.trim)
         for obj, bank in data.banks.items():
             self.centres.add(bank, data.drops.get(obj))
-        return {k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")}
+        return {**{k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")},
+                "texture": (self.meta.get("texture") or {}).get("share", 0.0)}
 
     def tabulate(self, data: TrainingData) -> VelocityTable:
         """A velocity table of the network trained by :meth:`fit` over the banks of ``data``."""
@@ -125,7 +126,7 @@ class NeuralInterpolator(TableServed):
             checkpoint.check_compatible(meta, path, arch=self.arch, n_samples=bank.n_samples, dataset=name,
                                         reducer=bank.reducer)
             table = VelocityTable.load(checkpoint.table_path(path))
-            table.check_source(self.arch, {"weights_sha256": meta["weights_sha256"]}, rebuild=_rebuild_hint(path))
+            table.check_source(self.arch, checkpoint.table_source(meta), rebuild=_rebuild_hint(path))
             self.table, self.meta = table, meta
         self.table.attach(bank, rebuild=_rebuild_hint(path))
 

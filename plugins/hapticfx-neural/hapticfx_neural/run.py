@@ -18,7 +18,7 @@ def triples_of(data, *, gaps: list[int], trim: float = 0.0, targets: dict[str, l
 
     Targets: ``targets[obj]`` (else ``data.targets``, else every interior recorded velocity).
     """
-    rows, chosen = [], {}
+    rows, reps, rates, chosen = [], [], set(), {}
     for obj, bank in data.banks.items():
         interior = [float(v) for v in bank.velocities[1:-1]]
         wanted = (targets or data.targets or {}).get(obj)
@@ -29,11 +29,16 @@ def triples_of(data, *, gaps: list[int], trim: float = 0.0, targets: dict[str, l
         if not picked:
             continue
         rows.append((prefix + obj, bank.velocities, object_pools(bank, data.drops.get(obj)), picked))
+        reps.append(bank.profiles)
+        rates.add(float(bank.rate_hz))
         chosen[obj] = picked
     if not rows:
         raise DatasetError(f"no training targets in dataset {data.dataset!r}: a target needs a recorded velocity "
                            "on each side")
-    return drop_triples(rows, gaps=gaps, trim=trim), chosen
+    if len(rates) > 1:
+        raise DatasetError(f"dataset {data.dataset!r} holds banks at different rates ({', '.join(map(str, sorted(rates)))} "
+                           "Hz); one network takes one rate")
+    return drop_triples(rows, gaps=gaps, trim=trim, reps=reps, rate_hz=rates.pop()), chosen
 
 
 def dataset_ref(dataset) -> str:
@@ -87,7 +92,8 @@ def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool 
 
         init = checkpoint.resolve(base / cfg.init)
     _, meta = train_network(cfg.interpolator, cfg.model, cfg.training, data, dataset_meta=meta_ds, out=out,
-                            resume=resume, progress=progress, label=f"train {cfg.interpolator}", init=init)
+                            resume=resume, progress=progress, label=f"train {cfg.interpolator}", init=init,
+                            texture=cfg.texture)
     weights = out / "model.safetensors"
     if len(datasets) == 1:  # tabulating the network takes most of a short run: told object by object
         tell = say if progress else None

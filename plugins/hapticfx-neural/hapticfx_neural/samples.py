@@ -90,7 +90,9 @@ def stack_triples(rows: list[tuple[Profile, Profile, float, np.ndarray | None]],
 class DropTriples:
     """Triples over pools of drops: ``pools[k]`` is ``(D_k, N)``; ``lo, hi, tgt`` index pools per triple;
     ``trim``: the fraction of drops cut at each end for a pool's centre (0: the mean); ``input_drops``: the
-    most drops an input centre is drawn from (None: every drop of its pool)."""
+    most drops an input centre is drawn from (None: every drop of its pool); ``reps[k]``: the bank's
+    representative of pool ``k`` and ``rate_hz`` the banks' rate, where known (what a profile is served from,
+    and what choosing its texture needs)."""
 
     pools: list[np.ndarray]
     lo: np.ndarray
@@ -102,6 +104,8 @@ class DropTriples:
     objects: list[str]
     trim: float = 0.0
     input_drops: int | None = None
+    reps: list[np.ndarray] | None = None
+    rate_hz: float | None = None
 
     def __len__(self) -> int:
         return int(self.v.shape[0])
@@ -113,7 +117,8 @@ class DropTriples:
     def subset(self, idx) -> "DropTriples":
         idx = np.asarray(idx, dtype=int)
         return DropTriples(self.pools, self.lo[idx], self.hi[idx], self.tgt[idx], self.v_lo[idx], self.v_hi[idx],
-                           self.v[idx], [self.objects[i] for i in idx], self.trim, self.input_drops)
+                           self.v[idx], [self.objects[i] for i in idx], self.trim, self.input_drops, self.reps,
+                           self.rate_hz)
 
     def centres(self, rng: np.random.Generator | None = None) -> Triples:
         """Triples whose inputs are the pools' centres; with ``rng``, each that of a random subset of its drops, of
@@ -142,8 +147,10 @@ def pool_centre(pool: np.ndarray, trim: float) -> np.ndarray:
 
 
 def drop_triples(pools_of: list[tuple[str, np.ndarray, list[np.ndarray], list[float]]], *,
-                 gaps: list[int], trim: float = 0.0) -> DropTriples:
-    """Triples of every object: ``(object, velocities (V,), pools, target velocities)``.
+                 gaps: list[int], trim: float = 0.0, reps: list[np.ndarray] | None = None,
+                 rate_hz: float | None = None) -> DropTriples:
+    """Triples of every object: ``(object, velocities (V,), pools, target velocities)``; ``reps``: each
+    object's representatives ``(V, N)`` (its bank's profiles), in the same order, where known.
 
     Target velocity ``i`` takes neighbours ``i - a`` and ``i + b`` for every ``a, b`` in ``gaps``
     (1: the adjacent recorded velocities; on a dense grid larger gaps add wider intervals and
@@ -172,22 +179,28 @@ def drop_triples(pools_of: list[tuple[str, np.ndarray, list[np.ndarray], list[fl
     if len(lengths) != 1:
         raise DatasetError(f"profiles of different lengths ({sorted(lengths)}) cannot train one network")
     as_int = lambda x: np.array(x, dtype=int)  # noqa: E731
+    kept = None if reps is None else [np.asarray(p, np.float64) for r in reps for p in r]
     return DropTriples(pools, as_int(lo), as_int(hi), as_int(tgt), np.array(vl, float), np.array(vh, float),
-                       np.array(vv, float), objs, trim)
+                       np.array(vv, float), objs, trim, reps=kept, rate_hz=rate_hz)
 
 
 def concat(parts: list[DropTriples]) -> DropTriples:
     if len({p.trim for p in parts}) > 1:
         raise DatasetError("triples with different centre trims cannot train one network")
+    rates = {p.rate_hz for p in parts}
+    if len(rates) > 1:
+        raise DatasetError(f"datasets at different rates ({', '.join(str(r) for r in sorted(rates, key=str))} Hz) "
+                           "cannot train one network")
     pools, offset, idx = [], 0, {"lo": [], "hi": [], "tgt": []}
     for p in parts:
         for k in idx:
             idx[k].append(getattr(p, k) + offset)
         pools.extend(p.pools)
         offset += len(p.pools)
+    reps = None if any(p.reps is None for p in parts) else [r for p in parts for r in p.reps]
     return DropTriples(pools, *(np.concatenate(idx[k]) for k in ("lo", "hi", "tgt")),
                        *(np.concatenate([getattr(p, k) for p in parts]) for k in ("v_lo", "v_hi", "v")),
-                       sum((p.objects for p in parts), []), parts[0].trim)
+                       sum((p.objects for p in parts), []), parts[0].trim, reps=reps, rate_hz=rates.pop())
 
 
 def encode(t: Triples, *, steps: int, v_mean: float, v_std: float):
@@ -212,18 +225,25 @@ def centre_of(t: Triples, correction: np.ndarray) -> np.ndarray:
     return (1.0 - w) * t.lower_c + w * t.upper_c + neighbour_scale(t.lower_c, t.upper_c)[:, None] * r
 
 
-def table_residual(t: Triples, correction: np.ndarray) -> np.ndarray:
-    """The core's residual ``(n, N)`` (:mod:`hapticfx.interpolators.residual`) that serves the prediction."""
+def table_residual(t: Triples, correction: np.ndarray, texture: dict | None = None) -> np.ndarray:
+    """The core's residual ``(n, N)`` (:mod:`hapticfx.interpolators.residual`) that serves the prediction, keeping
+    ``texture["share"]`` of the representatives' fine detail (:func:`hapticfx.interpolators.texture.keep`; a
+    checkpoint's ``meta["texture"]``, None: none). Linear in the correction, so still affine in ``w``."""
+    from hapticfx.interpolators.texture import keep
+
     w = weight(t.v_lo, t.v_hi, t.v)[:, None]
     blend = (1.0 - w) * t.lower + w * t.upper
-    return (centre_of(t, correction) - blend) / neighbour_scale(t.lower, t.upper)[:, None]
+    diff = centre_of(t, correction) - blend
+    if texture:
+        diff = keep(diff, texture["share"], texture["rate_hz"])
+    return diff / neighbour_scale(t.lower, t.upper)[:, None]
 
 
-def decode(t: Triples, correction: np.ndarray) -> np.ndarray:
+def decode(t: Triples, correction: np.ndarray, texture: dict | None = None) -> np.ndarray:
     """Profiles ``(n, N)`` (float64, bank units): the representatives' blend drawn toward the predicted centre."""
     from hapticfx.interpolators.residual import compose
 
-    return compose(t.lower, t.upper, weight(t.v_lo, t.v_hi, t.v), table_residual(t, correction))
+    return compose(t.lower, t.upper, weight(t.v_lo, t.v_hi, t.v), table_residual(t, correction, texture))
 
 
 def object_pools(bank, drops) -> list[np.ndarray]:

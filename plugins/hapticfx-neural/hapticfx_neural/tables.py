@@ -33,7 +33,7 @@ def network_table(net, meta: dict, banks: list, dataset: str, centres: Centres, 
         return predict_residual(net64, meta, stack_triples(rows, [obj] * len(v), centres))
 
     return build_table(banks, residual, interpolator=meta["interpolator"],
-                       source={"weights_sha256": meta.get("weights_sha256")}, dataset=dataset,
+                       source=checkpoint.table_source(meta), dataset=dataset,
                        tolerance=tolerance, progress=progress)
 
 

@@ -26,6 +26,7 @@ from hapticfx.progress import Progress
 from . import checkpoint
 from .networks import blend_plus_correction, build_network
 from .samples import DropTriples, Triples, decode, encode, table_residual
+from .texture import chosen_texture
 
 
 def make_network(arch: str, model: dict, n_samples: int) -> torch.nn.Module:
@@ -73,12 +74,14 @@ def _load_optimizer(opt: torch.optim.Adam, tensors: dict, groups: list) -> None:
 
 def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, dataset_meta: dict,
                   out: Path | None = None, resume: bool = False, progress: bool = True,
-                  label: str | None = None, init: Path | None = None) -> tuple[torch.nn.Module, dict]:
+                  label: str | None = None, init: Path | None = None,
+                  texture: float | str = 0.0) -> tuple[torch.nn.Module, dict]:
     """Train interpolator ``arch`` on ``data``; returns the best network (by validation RMSE) and its metadata.
 
     With ``out``, writes ``model.safetensors/.json`` (best) and ``resume.*`` (last
     epoch) there; ``resume=True`` continues from ``out/resume.*``. ``init``: a checkpoint
-    to fine-tune (same interpolator and sizes).
+    to fine-tune (same interpolator and sizes). ``texture``: the share of the neighbours' fine detail its
+    profiles keep, or ``"choose"`` it on the validation targets once trained (:mod:`.texture`).
     """
     if len(data) == 0:
         raise DatasetError("no training triples: a target needs a recorded velocity on each side")
@@ -172,6 +175,9 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
     net.load_state_dict(best_state)
     net.eval()
     meta["training"].update(_summary(state, t0), stopped_early=state["bad"] >= training["patience"])
+    kept = chosen_texture(texture, lambda t: predict_correction(net, meta, t), data.subset(va_idx))
+    if kept is not None:
+        meta["texture"] = kept
     if out is not None:
         _saved(lambda: _save_best(out, best_state, meta, state, t0), out, state, created)
     return net, meta
@@ -267,9 +273,9 @@ def predict_correction(net: torch.nn.Module, meta: dict, data: Triples, *, batch
 
 def predict(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
     """Profiles ``(n, N)`` (float64, bank units) predicted for ``data``."""
-    return decode(data, predict_correction(net, meta, data, batch=batch))
+    return decode(data, predict_correction(net, meta, data, batch=batch), meta.get("texture"))
 
 
 def predict_residual(net: torch.nn.Module, meta: dict, data: Triples, *, batch: int = 64) -> np.ndarray:
     """The core's table residual ``(n, N)`` of the prediction for ``data``."""
-    return table_residual(data, predict_correction(net, meta, data, batch=batch))
+    return table_residual(data, predict_correction(net, meta, data, batch=batch), meta.get("texture"))
