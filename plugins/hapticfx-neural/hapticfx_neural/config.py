@@ -6,6 +6,7 @@ No torch here: the CLI reads and checks a configuration before importing it.
 from __future__ import annotations
 
 import copy
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,7 +39,7 @@ DECODER_INPUTS = ("repeat", "sequence")
 ADDED_MODEL_KEYS = {"decoder_input": "repeat"}
 TRAINING_DEFAULTS = {
     "epochs": 100, "batch_size": 8, "learning_rate": 1e-4, "beta1": 0.9, "val_fraction": 0.2,
-    "patience": 30, "seed": 0, "threads": 1, "augment": True, "input_drops": None,
+    "patience": 30, "seed": 0, "threads": 1, "augment": True, "input_drops": None, "device": "cpu",
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
             "gaps", "trim", "texture", "init", "model", "training", "out")
@@ -164,6 +165,9 @@ def _check_training(t: dict, source: str) -> None:
     if k is not None and not (isinstance(k, int) and not isinstance(k, bool) and k >= 1):
         raise EffectError("expected an integer >= 1 (the most drops a neighbour's input centre is drawn from; "
                           "null: every drop)", source=source, key="training.input_drops")
+    if not (isinstance(t["device"], str) and re.fullmatch(r"cpu|cuda(:\d+)?", t["device"])):
+        raise EffectError("expected cpu, cuda or cuda:N (where torch trains; CUDA needs a CUDA build of torch and "
+                          "a GPU)", source=source, key="training.device")
     if not isinstance(t["augment"], bool):
         raise EffectError("expected true or false", source=source, key="training.augment")
     for k, lo, hi in (("learning_rate", 0, 1), ("beta1", 0, 1), ("val_fraction", 0, 0.9)):

@@ -87,6 +87,7 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
         raise DatasetError("no training triples: a target needs a recorded velocity on each side")
     data = dataclasses.replace(data, input_drops=training.get("input_drops"))
     torch.set_num_threads(int(training["threads"]))
+    device = _device(training.get("device", "cpu"))
     seed = int(training["seed"])
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed)
@@ -103,11 +104,12 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
         v_mean, v_std = init_meta["normalisation"]["velocity_mean"], init_meta["normalisation"]["velocity_std"]
         started_from = {"weights": str(init), "weights_sha256": init_meta["weights_sha256"],
                         "dataset": init_meta["dataset"].get("name")}
+    net.to(device)
     opt = torch.optim.Adam(net.parameters(), lr=training["learning_rate"], betas=(training["beta1"], 0.999))
 
     def enc(t: Triples):
         x, vel, y = encode(t, steps=model["steps"], v_mean=v_mean, v_std=v_std)
-        return torch.from_numpy(x), torch.from_numpy(vel), torch.from_numpy(y)
+        return tuple(torch.from_numpy(a).to(device) for a in (x, vel, y))
 
     def loss_of(x, vel, y):
         return _rmse(blend_plus_correction(x, vel, net(x, vel)), y)
@@ -172,6 +174,7 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
             bar.update(note=f"loss {train_rmse:.4f}, val {val_rmse:.4f}, best epoch {state['best_epoch']}")
     if bar is not None:
         bar.close()
+    net.to("cpu")  # served, tabulated and saved from the CPU
     net.load_state_dict(best_state)
     net.eval()
     meta["training"].update(_summary(state, t0), stopped_early=state["bad"] >= training["patience"])
@@ -226,7 +229,8 @@ def _resume(out: Path | None, net, opt, gen, meta: dict) -> tuple[dict, dict]:
         if old.get(key) != json.loads(json.dumps(meta[key])):
             raise CheckpointError(f"{path}: cannot resume: its {key} differs from this configuration "
                                   f"({old.get(key)!r} vs {meta[key]!r}); start afresh without --resume")
-    changed = [k for k in meta["training"] if k not in ("epochs", "patience") and old["training"].get(k) != meta["training"][k]]
+    changed = [k for k in meta["training"] if k not in ("epochs", "patience", "device")
+               and old["training"].get(k, "cpu" if k == "device" else None) != meta["training"][k]]
     if changed:
         raise CheckpointError(f"{path}: cannot resume: training.{changed[0]} differs from the checkpoint")
     tensors = checkpoint.load_tensors(path, sha256=old["weights_sha256"])
@@ -238,6 +242,16 @@ def _resume(out: Path | None, net, opt, gen, meta: dict) -> tuple[dict, dict]:
     best_path = Path(out) / "model.safetensors"
     best = checkpoint.load_tensors(best_path) if best_path.is_file() else copy.deepcopy(net.state_dict())
     return state, best
+
+
+def _device(name: str) -> torch.device:
+    """The torch device ``training.device`` names, refused in one line where this torch or machine has none."""
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        why = "this torch is a CPU build" if torch.version.cuda is None else "no CUDA GPU is visible"
+        raise CheckpointError(f"training.device {name!r}: {why}; train with device: cpu")
+    if name.startswith("cuda:") and int(name[5:]) >= torch.cuda.device_count():
+        raise CheckpointError(f"training.device {name!r}: this machine has {torch.cuda.device_count()} CUDA GPU(s)")
+    return torch.device(name)
 
 
 def load_network(path: Path, *, arch: str, n_samples: int | None = None, dataset: str | None = None,

@@ -142,6 +142,9 @@ def test_no_weights_for_the_dataset_names_the_command(syn_dataset):
     ({"interpolator": "lstm", "dataset": "x", "training": {"epochs": 0}}, "training.epochs"),
     ({"interpolator": "convbilstm", "dataset": "x", "model": {"kernel": 4}}, "model.kernel"),
     ({"interpolator": "convbilstm", "dataset": "x", "model": {"decoder_input": "sideways"}}, "model.decoder_input"),
+    ({"interpolator": "convbilstm", "dataset": "x", "training": {"device": "gpu"}}, "training.device"),
+    ({"interpolator": "convbilstm", "dataset": "x", "training": {"device": "cuda:x"}}, "training.device"),
+    ({"interpolator": "convbilstm", "dataset": "x", "training": {"device": 0}}, "training.device"),
 ])
 def test_bad_config_names_file_and_key(tmp_path, bad, key):
     import yaml
@@ -151,6 +154,30 @@ def test_bad_config_names_file_and_key(tmp_path, bad, key):
     with pytest.raises(EffectError) as err:
         load_config(path)
     assert str(path) in str(err.value) and key in str(err.value)
+
+
+def test_training_on_a_cuda_device_this_machine_lacks_is_refused_in_one_line(tmp_path, syn_dataset):
+    """On a machine with a CUDA GPU this refusal cannot happen; there `device: cuda` trains (not run here)."""
+    import subprocess
+    import sys
+
+    import torch
+    import yaml
+
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA GPU is visible")
+    path = tiny_config(tmp_path, syn_dataset, device="cuda")
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "train", str(path), "--quiet"], capture_output=True,
+                       text=True)
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert re.search(r"training.device 'cuda': (this torch is a CPU build|no CUDA GPU is visible); train with "
+                     r"device: cpu", r.stderr)
+    assert not (tmp_path / "ck-convbilstm").exists()
+    cfg = yaml.safe_load(path.read_text())
+    cfg["training"]["device"] = "cpu"  # the default, named
+    path.write_text(yaml.safe_dump(cfg))
+    meta, _ = train_from_config(load_config(path), progress=False)
+    assert meta["training"]["device"] == "cpu"
 
 
 def test_steps_must_divide_the_profile_length(tmp_path, syn_dataset):
