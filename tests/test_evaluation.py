@@ -210,6 +210,10 @@ def test_the_command_writes_tables_json_and_figures(uneven, tmp_path):
         assert (out / name).is_file(), name
     assert "### RMSE vs representative (g)" in r.stdout and "floor: mean of the other drops" in r.stdout
     assert "| ensemble-warp |" in r.stdout and "| ensemble |" in r.stdout  # default rows: the shipped one and ensemble
+    run_time = r.stdout.split("### Run time")[1].split("###")[0]
+    warp_row = next(line for line in run_time.splitlines() if line.startswith("| ensemble-warp |")).split(" | ")
+    assert "| texture per round |" in run_time and len(warp_row[3].split(", ")) == 4  # the texture each round chose
+    assert all(float(t) in (0.0, 0.2, 0.4, 0.6, 0.8) for t in warp_row[3].split(", "))
     assert "[4/4]" in r.stderr
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--dataset", str(uneven.path),
                         "--protocol", "paper"], capture_output=True, text=True)

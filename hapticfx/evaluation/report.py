@@ -115,6 +115,8 @@ def summarise(results: dict, *, boot: int = 2000, seed: int = 0) -> dict:
         s["extra"] = {k: v for k, v in row["fits"][0].items() if k != "fit_s"} if row["fits"] else {}
         if any("best_epoch" in f for f in row["fits"]):  # a learned row: the epoch each round kept
             s["best_epochs"] = [f.get("best_epoch") for f in row["fits"]]
+        if any("texture" in f for f in row["fits"]):  # the share of fine detail each round's fit chose or was given
+            s["textures"] = [f.get("texture") for f in row["fits"]]
         out["methods"][name] = s
     for obj in dict.fromkeys(f["object"] for f in folds):
         per = {}
@@ -160,14 +162,16 @@ def markdown(results: dict, summary: dict) -> str:
                 lines.append(f"| *{FLOOR_LABELS[fk]}* | {fl[fk]:.4f} | {fl[fk] / base:.3f} | "
                              f"{'1' if fk == floor_key else ''} | |")
         lines.append("")
-    lines += ["### Run time", "", "| method | fit per round (s) | best epoch per round | direct median / p99 (ms) | "
-              "served from a table median / p99 (ms) | table vs direct (max relative) |", "|---|---|---|---|---|---|"]
+    lines += ["### Run time", "", "| method | fit per round (s) | best epoch per round | texture per round | "
+              "direct median / p99 (ms) | served from a table median / p99 (ms) | table vs direct (max relative) |",
+              "|---|---|---|---|---|---|---|"]
     for m in names:
         s = summary["methods"][m]
         lat = s.get("latency_ms")
         tab = s.get("table_latency_ms")
         epochs = ", ".join(str(e) for e in s.get("best_epochs", [])) or "-"
-        lines.append(f"| {m} | {s['fit_s']:.2f} | {epochs} | "
+        textures = ", ".join(f"{t:g}" for t in s.get("textures", [])) or "-"
+        lines.append(f"| {m} | {s['fit_s']:.2f} | {epochs} | {textures} | "
                      + (f"{lat['median']:.4f} / {lat['p99']:.4f}" if lat else "-") + " | "
                      + (f"{tab['median']:.4f} / {tab['p99']:.4f}" if tab else "-") + " | "
                      + (f"{s['table_vs_direct_max']:.1e}" if "table_vs_direct_max" in s else "-") + " |")
