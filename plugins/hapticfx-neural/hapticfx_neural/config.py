@@ -112,6 +112,13 @@ class TrainConfig:
         Never the plugin's shipped weights unless asked for (`hapticfx train --ship`)."""
         return Path(self.out) if self.out else Path("checkpoints") / f"{self.interpolator}-{dataset_name}-{self.reducer}"
 
+    def init_path(self) -> Path | None:
+        """``init``, relative to the configuration file's folder (the current folder for a mapping), as
+        ``dataset`` is: the same file fine-tunes the same weights from `hapticfx train` and from a bench row."""
+        if self.init is None:
+            return None
+        return (Path(self.source).parent if self.source != "<config>" else Path()) / self.init
+
     def as_dict(self) -> dict:
         return {k: copy.deepcopy(getattr(self, k)) for k in TOP_KEYS}
 

@@ -80,7 +80,7 @@ class NeuralInterpolator(TableServed):
         cfg.training.update(options.get("training") or {})
         cfg.model.update(options.get("model") or {})
         triples, targets = triples_of(data, gaps=cfg.gaps, trim=cfg.trim)
-        init = options.get("init", cfg.init)
+        init = options.get("init", cfg.init_path())
         self.net, self.meta = train_network(
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
             label=options.get("label"), init=None if init is None else checkpoint.resolve(init), texture=cfg.texture,

@@ -87,10 +87,9 @@ def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool 
     out = cfg.out_dir(meta_ds["name"])
     init = None
     if cfg.init is not None:
-        base = Path(cfg.source).parent if cfg.source != "<config>" else Path()
         from . import checkpoint
 
-        init = checkpoint.resolve(base / cfg.init)
+        init = checkpoint.resolve(cfg.init_path())
     _, meta = train_network(cfg.interpolator, cfg.model, cfg.training, data, dataset_meta=meta_ds, out=out,
                             resume=resume, progress=progress, label=f"train {cfg.interpolator}", init=init,
                             texture=cfg.texture)

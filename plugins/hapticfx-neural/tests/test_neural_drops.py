@@ -181,6 +181,28 @@ def test_fine_tuning_starts_from_the_given_weights_and_refuses_other_sizes(tmp_p
         train_from_config(cfg, progress=False)
 
 
+def test_a_bench_row_fine_tunes_from_init_relative_to_its_configuration_file(tmp_path, drop_dataset, monkeypatch):
+    """As `hapticfx train` reads it: a configuration names its pre-trained weights beside it, wherever the bench
+    runs."""
+    import yaml
+
+    from hapticfx.data.training import training_data
+    from hapticfx_neural import checkpoint
+
+    _, pre = train_from_config(load_config(tiny_config(tmp_path, drop_dataset, epochs=1)), progress=False)
+    path = tiny_config(tmp_path, drop_dataset, epochs=1)
+    cfg = yaml.safe_load(path.read_text())
+    cfg["init"] = str(pre.relative_to(tmp_path))
+    path.write_text(yaml.safe_dump(cfg))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    ds = open_dataset(drop_dataset)
+    interp = get_registry().create("interpolator", "convbilstm", config=str(path))
+    interp.fit(training_data(ds, "max-min", ds.objects))
+    assert interp.meta["init"]["weights_sha256"] == checkpoint.read_meta(pre)["weights_sha256"]
+
+
 def test_the_bench_runner_trains_on_drops_with_the_fold_held_out(drop_dataset):
     """TrainingData without the held-out velocity: it is neither a target nor an input pool."""
     ds = open_dataset(drop_dataset)
