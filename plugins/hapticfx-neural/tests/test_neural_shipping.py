@@ -58,3 +58,16 @@ def test_bench_threads_default_config_is_the_shipped_one():
     from hapticfx_neural.config import load_config
 
     assert SHIPPED_CONFIG.is_file() and load_config(SHIPPED_CONFIG).interpolator == "convbilstm"
+
+
+def test_the_shipped_fine_tuning_configuration_finds_its_pre_trained_weights():
+    """The pre-trained checkpoint ships beside the configuration that fine-tunes it; their sizes agree."""
+    from hapticfx_neural import checkpoint
+    from hapticfx_neural.checkpoint import read_meta, resolve
+    from hapticfx_neural.config import load_config
+
+    cfg = load_config(checkpoint.WEIGHTS_DIR.parent / "configs" / "helmet-drops-convbilstm-pretrained.yaml")
+    meta = read_meta(resolve(cfg.init_path()))
+    assert meta["model"] == cfg.model and meta["interpolator"] == cfg.interpolator
+    assert meta["training"]["input_drops"] == 10 and len(meta["dataset"]["datasets"]) == 16
+    assert meta["training"]["best_epoch"] > 5
