@@ -16,6 +16,7 @@ import numpy as np
 from hapticfx.interpolators.residual import weight
 from hapticfx.interpolators.texture import Target, choose
 
+from .config import CHOOSE
 from .samples import DropTriples, centre_of
 
 
@@ -32,20 +33,18 @@ def validation_targets(correction, data: DropTriples) -> list[Target]:
                    float(data.rate_hz)) for i, k in enumerate(data.tgt)]
 
 
-def chosen_texture(setting, correction, validation: DropTriples | None) -> dict | None:
-    """A checkpoint's ``texture`` record: the share ``setting`` fixes, or (``"choose"``) the one chosen on
-    ``validation``, with every share's mean scores there. None where none is kept: a fixed share 0, or nothing to
-    choose on (no validation targets, or no representatives)."""
-    if setting != "choose":
-        return None if not setting else {"share": float(setting), "chosen_on": "fixed", "rate_hz": _rate(validation)}
-    if validation is None or not len(validation) or validation.reps is None or validation.rate_hz is None:
+def chosen_texture(setting, correction, validation: DropTriples) -> dict | None:
+    """A checkpoint's ``texture`` record: the share ``setting`` fixes, or (:data:`~.config.CHOOSE`) the one chosen
+    on ``validation``, with every share's mean scores there. None where none is kept: a fixed share 0, or nothing
+    to choose on (no validation targets, or no representatives)."""
+    if setting != CHOOSE:
+        if not setting:
+            return None
+        if validation.rate_hz is None:
+            raise ValueError("a fixed texture needs the banks' rate (DropTriples.rate_hz)")
+        return {"share": float(setting), "chosen_on": "fixed", "rate_hz": float(validation.rate_hz)}
+    if not len(validation) or validation.reps is None or validation.rate_hz is None:
         return None
     share, scores = choose(validation_targets(correction, validation))
     return {"share": float(share), "chosen_on": f"{len(validation)} validation triples",
             "rate_hz": float(validation.rate_hz), "scores": scores}
-
-
-def _rate(data: DropTriples | None) -> float:
-    if data is None or data.rate_hz is None:
-        raise ValueError("a fixed texture needs the banks' rate (DropTriples.rate_hz)")
-    return float(data.rate_hz)

@@ -230,7 +230,7 @@ def _resume(out: Path | None, net, opt, gen, meta: dict) -> tuple[dict, dict]:
             raise CheckpointError(f"{path}: cannot resume: its {key} differs from this configuration "
                                   f"({old.get(key)!r} vs {meta[key]!r}); start afresh without --resume")
     changed = [k for k in meta["training"] if k not in ("epochs", "patience", "device")
-               and old["training"].get(k, "cpu" if k == "device" else None) != meta["training"][k]]
+               and old["training"].get(k) != meta["training"][k]]
     if changed:
         raise CheckpointError(f"{path}: cannot resume: training.{changed[0]} differs from the checkpoint")
     tensors = checkpoint.load_tensors(path, sha256=old["weights_sha256"])
