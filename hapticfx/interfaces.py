@@ -166,7 +166,11 @@ class Interpolator(abc.ABC):
     name: ClassVar[str]
 
     def fit(self, data: TrainingData, **options) -> dict:
-        """Learn from ``data``; returns a summary (losses, epochs, choices). Default: nothing to learn."""
+        """Learn from ``data``; returns a summary (losses, epochs, choices). Default: nothing to learn.
+
+        Beside a learned row's own options, the benchmark passes ``label`` (what to call this fit) and
+        ``progress=True``: long work shows its progress on standard error under that label.
+        """
         return {}
 
     def prepare(self, bank: "ProfileBank", *, dataset: "Dataset | None" = None, base_dir: Path | None = None) -> None:

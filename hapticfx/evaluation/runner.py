@@ -225,7 +225,7 @@ def _run_method(m: Method, row: dict, data, rnd, k: int, truths: dict, rate: flo
                 echo) -> None:
     interp = get_registry().create("interpolator", m.interpolator, **m.options)
     t0 = time.perf_counter()
-    summary = interp.fit(data, **m.fit, label=f"{m.row}, {rnd.name}")
+    summary = interp.fit(data, **m.fit, label=f"{m.row}, round {k + 1}", progress=True)
     fit_s = time.perf_counter() - t0
     for bank in data.banks.values():
         interp.prepare(bank)

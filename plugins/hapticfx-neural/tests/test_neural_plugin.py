@@ -93,6 +93,7 @@ def test_bench_interpolators_trains_networks_per_round_and_serves_them_from_tabl
         assert f"| {row} | {summary[row]['fit_s']:.2f} | {epochs[0]} | " in r.stdout  # the run-time table says it
     assert "best_epochs" not in summary["linear"]
     assert "### RMSE vs representative (g)" in r.stdout
+    assert "convbilstm-tiny, round 1" in r.stderr and "best epoch" in r.stderr  # each network's epochs, as it trains
 
 
 def test_shipped_weights_play_the_brick_with_convbilstm(tmp_path):
