@@ -138,5 +138,12 @@ def test_builtin_raw_recordings_regenerate_exactly(builtin):
     info = PAPER_OBJECTS["plastic-frame"]
     again = record_drops(info, meta["velocities_mps"], meta["drops"], seed=meta["seed"], workers=2)
     with np.load(builtin.path / "raw" / "plastic-frame.npz") as z:
-        assert np.array_equal(z["accel_g"], again)
+        shipped = z["accel_g"]
+    # The same seed gives the same drops; only the last bits of the floating-point physics differ from one
+    # CPU to another (an AMD EPYC regenerates 4 of these 252,000 samples one step away), and the sensor's
+    # quantisation turns such a difference into one step where a value lies on a boundary.
+    lsb = Rig().sensor.lsb_g
+    off = np.abs(shipped.astype(np.float64) - again)
+    assert off.max() <= 1.001 * lsb
+    assert np.count_nonzero(off) <= 1e-4 * off.size
     assert json.loads((builtin.path / "dataset.json").read_text())["name"] == "helmet-drops"
