@@ -15,8 +15,11 @@ def train(
     out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="DIR",
                                        help="Checkpoint directory (overrides `out:` in the YAML; "
                                        "default: checkpoints/<interpolator>-<dataset>-<reducer> here)."),
-    ship: bool = typer.Option(False, "--ship", help="Write into the plugin's shipped weights for the dataset and "
-                              "reducer (what effects use without `weights:`), replacing them; implies --release."),
+    ship: bool = typer.Option(False, "--ship", help="Replace the plugin's shipped weights for the dataset and "
+                              "reducer (what effects use without `weights:`) with this run's, once it has "
+                              "finished: it trains in checkpoints/ship-<interpolator>-<dataset>-<reducer> here "
+                              "(an interrupted run leaves the shipped weights as they were; --ship --resume "
+                              "continues it); implies --release."),
     resume: bool = typer.Option(False, "--resume", help="Continue the run saved in the checkpoint directory."),
     epochs: Optional[int] = typer.Option(None, "--epochs", metavar="COUNT", min=1, help="Override training.epochs."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
@@ -43,7 +46,8 @@ def train(
         from hapticfx.data.dataset import open_dataset
 
         name = open_dataset(cfg.dataset, relative_to=config.parent).name
-        cfg.out = str(checkpoint.WEIGHTS_DIR / name / cfg.reducer / cfg.interpolator)
+        shipped = checkpoint.WEIGHTS_DIR / name / cfg.reducer / cfg.interpolator
+        cfg.out = str(Path("checkpoints") / f"ship-{cfg.interpolator}-{name}-{cfg.reducer}")
         release = True
     elif out is not None:
         cfg.out = str(out)
@@ -53,6 +57,8 @@ def train(
     if release:
         for name in ("resume.safetensors", "resume.json"):
             (path.parent / name).unlink(missing_ok=True)
+    if ship:
+        path = _swap_in(path, shipped)
     t = meta["training"]
     typer.echo(f"{cfg.interpolator}: {t['epochs_run']} epochs in {t['train_time_s']:.1f} s, best epoch {t['best_epoch']} "
                f"(validation RMSE {t['best_val_rmse_normalised']:.4f} normalised), {meta['parameters']:,} parameters")
@@ -69,6 +75,24 @@ def train(
         if meta.get("init"):
             title += f", fine-tuned from weights pre-trained on {meta['init']['dataset']}"
         typer.echo(f"wrote {curves_png(curves, [(cfg.interpolator, meta)], title=title)}")
+
+
+def _swap_in(weights: Path, shipped: Path) -> Path:
+    """Move a finished run's folder (``weights``' parent) into place as ``shipped``, replacing the folder there
+    by renames, so that no reader meets new weights beside an old velocity table; returns the weights' new path."""
+    import shutil
+
+    new, old = shipped.with_name(f".{shipped.name}.new"), shipped.with_name(f".{shipped.name}.old")
+    for leftover in (new, old):
+        shutil.rmtree(leftover, ignore_errors=True)
+    shipped.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(weights.parent, new)
+    if shipped.exists():
+        shipped.rename(old)
+    new.rename(shipped)
+    shutil.rmtree(old, ignore_errors=True)
+    shutil.rmtree(weights.parent)
+    return shipped / weights.name
 
 
 def table(

@@ -25,10 +25,28 @@ def test_train_writes_to_a_user_folder_unless_told_to_ship(tmp_path, drop_datase
     assert r.exit_code == 0, r.output
     assert (tmp_path / "checkpoints" / "convbilstm-toy-drops-max-min" / "model.safetensors").is_file()
     assert not shipped.exists()
+    out = shipped / "toy-drops" / "max-min" / "convbilstm"
+    out.mkdir(parents=True)
+    (out / "model.json").write_text("the weights shipped before")
+    # a --ship run stopped after its checkpoints are written, before it ends, leaves the shipped weights as
+    # they were (the stop is simulated: training runs for real, then the call raises)
+    from hapticfx_neural import run
+
+    real = run.train_from_config
+
+    def stopped(*args, **kwargs):
+        real(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run, "train_from_config", stopped)
+    r = CliRunner().invoke(build_app(), ["train", str(path), "--quiet", "--ship"])
+    assert r.exit_code != 0 and (out / "model.json").read_text() == "the weights shipped before"
+    monkeypatch.setattr(run, "train_from_config", real)
     r = CliRunner().invoke(build_app(), ["train", str(path), "--quiet", "--ship"])
     assert r.exit_code == 0, r.output
-    out = shipped / "toy-drops" / "max-min" / "convbilstm"
     assert sorted(p.name for p in out.iterdir()) == ["model.json", "model.safetensors", "model.table.npz"]
+    assert sorted(p.name for p in out.parent.iterdir()) == ["convbilstm"]
+    assert not (tmp_path / "checkpoints" / "ship-convbilstm-toy-drops-max-min").exists()
 
 
 def test_pretraining_draws_are_reproducible_valid_specs_on_dense_grids_with_their_own_seeds(tmp_path):
