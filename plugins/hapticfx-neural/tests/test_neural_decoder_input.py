@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import shutil
+
 import numpy as np
 import pytest
 from neural_testkit import TINY, TINY_BY_ARCH
@@ -12,12 +15,17 @@ from hapticfx_neural.samples import drop_triples
 from hapticfx_neural.training import train_network
 
 
-def test_the_paper_repeat_vector_is_the_default_and_older_checkpoints_read_as_it():
+def test_the_paper_repeat_vector_is_the_default_and_older_checkpoints_read_as_it(tmp_path):
     for arch in ("convbilstm", "convlstm-ed", "bilstm-ed", "lstm-sae"):
         assert MODEL_DEFAULTS[arch]["decoder_input"] == "repeat"
-    # the shipped weights were written before the key existed: read as what they were trained with
-    meta = checkpoint.read_meta(checkpoint.default_weights("helmet-drops", "max-min", "convbilstm"))
-    assert meta["model"]["decoder_input"] == "repeat"
+    # a checkpoint written before the key existed reads as what it was trained with
+    shipped = checkpoint.default_weights("helmet-drops", "max-min", "convbilstm")
+    meta = json.loads(shipped.with_suffix(".json").read_text())
+    del meta["model"]["decoder_input"]
+    old = tmp_path / "model.safetensors"
+    shutil.copyfile(shipped, old)
+    old.with_suffix(".json").write_text(json.dumps(meta))
+    assert checkpoint.read_meta(old)["model"]["decoder_input"] == "repeat"
 
 
 def _moving_bounce(n: int = 100):

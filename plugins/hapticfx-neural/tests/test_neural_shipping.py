@@ -75,7 +75,11 @@ def test_bench_threads_default_config_is_the_shipped_one():
     from hapticfx_neural.bench.threads import SHIPPED_CONFIG
     from hapticfx_neural.config import load_config
 
-    assert SHIPPED_CONFIG.is_file() and load_config(SHIPPED_CONFIG).interpolator == "convbilstm"
+    from hapticfx_neural import checkpoint
+
+    cfg = load_config(SHIPPED_CONFIG)
+    meta = checkpoint.read_meta(checkpoint.default_weights("helmet-drops", "max-min", "convbilstm"))
+    assert cfg.interpolator == meta["interpolator"] == "convbilstm" and cfg.model == meta["model"]
 
 
 def test_the_shipped_fine_tuning_configuration_finds_its_pre_trained_weights():

@@ -19,7 +19,7 @@ import typer
 
 from hapticfx.timing import Timing, ms, table
 
-SHIPPED_CONFIG = Path(__file__).resolve().parent.parent / "configs" / "helmet-drops-convbilstm.yaml"
+SHIPPED_CONFIG = Path(__file__).resolve().parent.parent / "configs" / "helmet-drops-convbilstm-pretrained.yaml"
 
 
 def _inference_times(net, meta, data, counts: list[int], repeat: int) -> dict[int, list[float]]:
