@@ -86,12 +86,11 @@ def _swap_in(weights: Path, shipped: Path) -> Path:
     for leftover in (new, old):
         shutil.rmtree(leftover, ignore_errors=True)
     shipped.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copytree(weights.parent, new)
+    shutil.move(weights.parent, new)  # a rename, or a copy where checkpoints/ is on another file system
     if shipped.exists():
         shipped.rename(old)
     new.rename(shipped)
     shutil.rmtree(old, ignore_errors=True)
-    shutil.rmtree(weights.parent)
     return shipped / weights.name
 
 

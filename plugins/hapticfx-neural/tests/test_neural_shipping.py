@@ -72,10 +72,9 @@ def test_pretraining_draws_are_reproducible_valid_specs_on_dense_grids_with_thei
 
 
 def test_bench_threads_default_config_is_the_shipped_one():
+    from hapticfx_neural import checkpoint
     from hapticfx_neural.bench.threads import SHIPPED_CONFIG
     from hapticfx_neural.config import load_config
-
-    from hapticfx_neural import checkpoint
 
     cfg = load_config(SHIPPED_CONFIG)
     meta = checkpoint.read_meta(checkpoint.default_weights("helmet-drops", "max-min", "convbilstm"))
