@@ -2,7 +2,8 @@
 
 On a terminal, :class:`Progress` redraws one line in place (label, bar, count, elapsed time, an
 estimate of what is left, and a note); in a log (CI, a pipe) it writes a plain line at most every
-``every_s`` seconds and one at the end. :func:`say` writes a status line.
+``every_s`` seconds and one at the end. :func:`say` writes a status line. A worker process that shares
+its terminal with others calls :func:`lines_only` so that its progress comes as plain lines too.
 """
 
 from __future__ import annotations
@@ -10,6 +11,15 @@ from __future__ import annotations
 import sys
 import time
 from typing import TextIO
+
+
+_redraw = True
+
+
+def lines_only() -> None:
+    """From now on, progress in this process is written as plain lines, even on a terminal."""
+    global _redraw
+    _redraw = False
 
 
 def say(message: str, *, stream: TextIO | None = None) -> None:
@@ -35,7 +45,7 @@ class Progress:
         self.done = done
         self.note = ""
         self.stream = stream or sys.stderr
-        self.live = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.live = _redraw and bool(getattr(self.stream, "isatty", lambda: False)())
         self.every_s = every_s
         self._start = time.monotonic()
         self._first = done

@@ -17,7 +17,7 @@ from hapticfx.errors import DatasetError, EffectError
 from hapticfx.evaluation import measures
 from hapticfx.processing import likeness
 from hapticfx.evaluation.folds import looo_rounds, lovo_rounds, paper_rounds
-from hapticfx.evaluation.report import summarise
+from hapticfx.evaluation.report import markdown, summarise
 from hapticfx.evaluation.runner import methods_from, run_evaluation
 from hapticfx.objects import PAPER_OBJECTS
 
@@ -262,8 +262,9 @@ def test_generalisation_takes_no_dataset(tmp_path):
 
 
 def _comparable(results: dict) -> dict:
-    """Results without what a rerun measures afresh (fit and run times)."""
+    """Results without what a rerun measures afresh (fit and run times) and how many processes ran it."""
     out = json.loads(json.dumps(results))
+    out.pop("processes")
     for row in out["methods"].values():
         row.pop("latency_ms", None), row.pop("table_latency_ms", None)
         for fit in row["fits"]:
@@ -313,6 +314,30 @@ def test_a_resumed_run_refuses_other_rows_protocols_and_drops(uneven):
     run_evaluation(uneven, "max-min", rows, repeats=5, previous=earlier, echo=said.append)
     assert [m.split(":")[0] for m in said if "kept from the earlier run" in m] == ["[1/4] interior velocity 1 of each object",
                                                                                      "[4/4] interior velocity 4 of each object"]
+
+
+def test_rounds_fitted_side_by_side_score_as_a_serial_run_does(uneven):
+    rows = methods_from(["ensemble", "ensemble-warp"])
+    serial = run_evaluation(uneven, "max-min", rows, repeats=5, echo=lambda m: None)
+    saved, said = [], []
+    side = run_evaluation(uneven, "max-min", rows, repeats=5, jobs=2, echo=said.append,
+                          on_round=lambda r: saved.append(json.loads(json.dumps(r))))
+    assert _comparable(side) == _comparable(serial)
+    assert all("latency_ms" in row for row in side["methods"].values())  # timed once, in one of the processes
+    assert "4 rounds in 2 processes" in said
+    assert (serial["processes"], side["processes"]) == (1, 2)
+    assert "Rounds ran in 2 processes side by side" in markdown(side, summarise(side))
+    assert "side by side" not in markdown(serial, summarise(serial))
+    # saved after every round, each save holding only finished rounds, in round order
+    assert [s["rounds"] for s in saved] == [1, 2, 3, 4]
+    for s in saved:
+        finished = {f["round"] for f in s["folds"]}
+        assert len(finished) == s["rounds"]
+        assert {x["round"] for row in s["methods"].values() for x in row["fits"]} == finished
+        assert [f["round"] for f in s["folds"]] == sorted(f["round"] for f in s["folds"])
+    # a side-by-side run stopped after its first saved round resumes into the same results
+    resumed = run_evaluation(uneven, "max-min", rows, repeats=5, jobs=2, previous=saved[0], echo=lambda m: None)
+    assert _comparable(resumed) == _comparable(serial)
 
 
 def test_the_command_resumes_and_refuses_a_corrupt_results_file(uneven, tmp_path):

@@ -45,6 +45,11 @@ def interpolators(
     max_rounds: Optional[int] = typer.Option(None, "--max-rounds", metavar="COUNT", min=1,
                                              help="Run at most this many rounds per "
                                              "dataset, evenly spread (tables say how many folds ran)."),
+    jobs: int = typer.Option(1, "--jobs", "-j", metavar="COUNT", min=0, max=256,
+                             help="Rounds fitted side by side in this many processes (joblib, loky); 0: one per "
+                             "core. Each network trains on its own configuration's torch threads (one by "
+                             "default), so a round of networks is best given a core of its own. Any value gives "
+                             "the same scores; run times are then taken beside the other processes."),
     out: Path = typer.Option(Path("bench-interpolators"), "--out", "-o", metavar="DIR", help="Directory for tables.md, "
                              "results.json and the PNGs (one sub-folder per dataset for generalisation). "
                              "results.json is rewritten after every round."),
@@ -68,7 +73,7 @@ def interpolators(
             for r in rows]
     if protocol != "generalisation":
         md = _run(dataset, protocol, reducer, rows, seed=seed, repeats=repeats, max_rounds=max_rounds, out=out,
-                  resume=resume)[0]
+                  resume=resume, jobs=jobs)[0]
         typer.echo(md)
         return
     if dataset != "builtin:helmet-drops":
@@ -78,7 +83,7 @@ def interpolators(
     for ref, fold_protocol in gen.DATASETS:
         sub = out / f"{ref.split(':')[-1]}-{fold_protocol}"
         _, results, summary = _run(ref, fold_protocol, reducer, rows, seed=seed, repeats=repeats,
-                                   max_rounds=max_rounds, out=sub, resume=resume)
+                                   max_rounds=max_rounds, out=sub, resume=resume, jobs=jobs)
         runs.append((results, summary))
         tables.append(gen.table(results, summary))
         typer.echo(tables[-1])
@@ -91,7 +96,7 @@ def interpolators(
 
 
 def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int, max_rounds: int | None,
-         out: Path, resume: bool = False):
+         out: Path, resume: bool = False, jobs: int = 1):
     """One dataset and fold protocol: run, summarise, write tables.md, results.json and the PNGs into ``out``."""
     from ..data.dataset import open_dataset
     from ..evaluation.heldout import resolve
@@ -113,7 +118,7 @@ def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int
         return summary
 
     results = run_evaluation(ds, reducer, rows, protocol=protocol, repeats=repeats, max_rounds=max_rounds,
-                             previous=previous, previous_source=str(file), on_round=save, echo=say)
+                             previous=previous, previous_source=str(file), on_round=save, echo=say, jobs=jobs)
     summary = save(results)
     md = markdown(results, summary)
     (out / "tables.md").write_text(md)

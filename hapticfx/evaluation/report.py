@@ -162,7 +162,11 @@ def markdown(results: dict, summary: dict) -> str:
                 lines.append(f"| *{FLOOR_LABELS[fk]}* | {fl[fk]:.4f} | {fl[fk] / base:.3f} | "
                              f"{'1' if fk == floor_key else ''} | |")
         lines.append("")
-    lines += ["### Run time", "", "| method | fit per round (s) | best epoch per round | texture per round | "
+    lines += ["### Run time", ""]
+    if results.get("processes", 1) > 1:
+        lines += [f"Rounds ran in {results['processes']} processes side by side: these times were taken beside "
+                  "each other.", ""]
+    lines += ["| method | fit per round (s) | best epoch per round | texture per round | "
               "direct median / p99 (ms) | served from a table median / p99 (ms) | table vs direct (max relative) |",
               "|---|---|---|---|---|---|---|"]
     for m in names:

@@ -12,6 +12,7 @@ answer is compared with the method's own.
 from __future__ import annotations
 
 import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -102,14 +103,16 @@ def _scores(pred, truth, drops, rate_hz: float) -> dict:
 def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, protocol: str = "lovo",
                    repeats: int = 50, max_rounds: int | None = None, previous: dict | None = None,
                    previous_source: str | None = None, on_round: Callable[[dict], None] | None = None,
-                   echo: Callable[[str], None] = print) -> dict:
+                   echo: Callable[[str], None] = print, jobs: int = 1) -> dict:
     """Fit every method on every round and score it on the held-out folds; returns plain data (JSON-able).
 
     ``max_rounds``: run only that many rounds, evenly spread over the protocol's (the result says how many).
     ``previous``: the results of an earlier run of the same dataset, reducer, protocol and rows; the rounds it
     finished are kept, not run again (:func:`kept_rounds`; ``previous_source``, the file it came from, is what
     its errors name). ``on_round``: called with the results so far after
-    each round, so that a long run can be saved as it goes.
+    each round, so that a long run can be saved as it goes. ``jobs``: rounds fitted side by side in that many
+    processes (joblib; 0: one per core); the results are those of a serial run, except the timings, which are
+    then taken beside the other processes.
     """
     banks = {o: dataset.bank(o, reducer) for o in dataset.objects}
     rounds = rounds_for(protocol, banks)
@@ -119,43 +122,120 @@ def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, pro
         if previous else {}
     rate = dataset.rate_hz
     drops_cache: dict = {}
-    folds = []
-    rows = {m.row: {"interpolator": m.interpolator, **_settings(m), "fits": [], "folds": [], "error": None}
-            for m in methods}
+    floors: dict[int, list[dict]] = {}
     for k, rnd in enumerate(rounds):
-        echo(f"[{k + 1}/{len(rounds)}] {rnd.name}: " + ("kept from the earlier run, " if k in kept else "")
-             + "hold out " + ", ".join(f"{f.object} {f.velocity:g}" for f in rnd.folds))
-        truths = {}
+        floors[k] = []
         for f in rnd.folds:
-            truth, drops, rep = _fold_truth(dataset, f.object, reducer, f.velocity, drops_cache)
-            truths[f] = (truth, drops)
+            _, drops, rep = _fold_truth(dataset, f.object, reducer, f.velocity, drops_cache)
             floor = {**measures.floors(drops, rep, rate_hz=rate), **measures.drop_pairs(drops, rate_hz=rate)} \
                 if drops is not None else {}
-            folds.append({"object": f.object, "velocity": f.velocity, "round": k, **floor})
-        if k in kept:
-            _keep_round(previous, kept[k], k, folds[-len(rnd.folds):], rows, middle=k == len(rounds) // 2,
-                        source=previous_source)
-        else:
-            data = training_data(dataset, reducer, holdout=rnd.holdout, targets=rnd.targets)
-            for m in methods:
-                row = rows[m.row]
-                if row["error"]:
-                    continue
-                echo(f"  {m.row}: fitting")
-                try:
-                    _run_method(m, row, data, rnd, k, truths, rate, 0 if "latency_ms" in row else repeats,
-                                k == len(rounds) // 2, echo)
-                except HapticfxError as exc:
-                    row["error"] = str(exc)
-                    echo(f"  {m.row}: skipped: {exc}")
+            floors[k].append({"object": f.object, "velocity": f.velocity, "round": k, **floor})
+    rows = {m.row: {"interpolator": m.interpolator, **_settings(m), "fits": [], "folds": [], "error": None}
+            for m in methods}
+    done: list[int] = []
+    to_fit = [k for k in range(len(rounds)) if k not in kept]
+    workers = max(1, min(jobs or os.cpu_count() or 1, len(to_fit)))
+
+    def finished(k: int) -> None:
+        done.append(k)
         if on_round is not None:
-            on_round(_results(dataset, reducer, protocol, k + 1, len(rounds), folds, rows))
-    return _results(dataset, reducer, protocol, len(rounds), len(rounds), folds, rows)
+            on_round(_results(dataset, reducer, protocol, floors, done, len(rounds), rows, workers))
+
+    def held(k: int) -> str:
+        return f"[{k + 1}/{len(rounds)}] {rounds[k].name}: " + ("kept from the earlier run, " if k in kept else "") \
+            + "hold out " + ", ".join(f"{f.object} {f.velocity:g}" for f in rounds[k].folds)
+
+    for k, j in kept.items():
+        echo(held(k))
+        _keep_round(previous, j, k, floors[k], rows, middle=k == len(rounds) // 2, source=previous_source)
+        finished(k)
+    untimed = {m.row for m in methods if "latency_ms" not in rows[m.row]}
+    if workers == 1:
+        for k in to_fit:
+            echo(held(k))
+            skip = {name for name, row in rows.items() if row["error"]}
+            _merge(rows, _fit_round(dataset, reducer, methods, rounds[k], k, len(rounds), skip=skip,
+                                    timed=untimed if k == to_fit[0] else set(), repeats=repeats, echo=echo))
+            finished(k)
+    else:
+        from joblib import Parallel, delayed
+
+        for k in to_fit:
+            echo(held(k))
+        echo(f"{len(to_fit)} rounds in {workers} processes")
+        calls = (delayed(_fit_round)(dataset.path, reducer, methods, rounds[k], k, len(rounds),
+                                     timed=untimed if k == to_fit[0] else set(), repeats=repeats)
+                 for k in to_fit)
+        for k, fitted in Parallel(n_jobs=workers, return_as="generator_unordered")(calls):
+            _merge(rows, (k, fitted))
+            finished(k)
+            echo(f"[{k + 1}/{len(rounds)}] done; {len(done)} of {len(rounds)} rounds finished")
+    return _results(dataset, reducer, protocol, floors, done, len(rounds), rows, workers)
 
 
-def _results(dataset: Dataset, reducer: str, protocol: str, done: int, planned: int, folds, rows) -> dict:
+def _fit_round(dataset: Dataset | Path, reducer: str, methods: list[Method], rnd, k: int, n_rounds: int, *,
+               skip: set = frozenset(), timed: set, repeats: int,
+               echo: Callable[[str], None] | None = None) -> tuple[int, dict]:
+    """Round ``k``: fit every method (but those in ``skip``) on its training data and score its folds.
+
+    Returns ``(k, {row: {"fits", "folds", "error", and "latency_ms"... where timed}})``. ``dataset`` is a path
+    in a worker process, which then writes its lines on standard error, tagged with the round.
+    """
+    if not isinstance(dataset, Dataset):
+        from ..data.dataset import open_dataset
+        from ..progress import lines_only, say
+
+        lines_only()  # several processes share one terminal: no line redrawn in place
+        dataset = open_dataset(dataset)
+        echo = lambda message: say(f"[{k + 1}/{n_rounds}] {message.strip()}")  # noqa: E731
+    rate = dataset.rate_hz
+    drops_cache: dict = {}
+    truths = {f: _fold_truth(dataset, f.object, reducer, f.velocity, drops_cache)[:2] for f in rnd.folds}
+    data = training_data(dataset, reducer, holdout=rnd.holdout, targets=rnd.targets)
+    out = {}
+    for m in methods:
+        if m.row in skip:
+            continue
+        row = out[m.row] = {"fits": [], "folds": [], "error": None}
+        echo(f"  {m.row}: fitting")
+        try:
+            _run_method(m, row, data, rnd, k, truths, rate, repeats if m.row in timed else 0,
+                        k == n_rounds // 2, echo)
+        except HapticfxError as exc:
+            row["error"] = str(exc)
+            echo(f"  {m.row}: skipped: {exc}")
+    return k, out
+
+
+def _merge(rows: dict, fitted: tuple[int, dict]) -> None:
+    """Add one round's fits and scores (:func:`_fit_round`) to ``rows``; a row keeps its first error."""
+    _, got = fitted
+    for name, part in got.items():
+        row = rows[name]
+        row["fits"] += part["fits"]
+        row["folds"] += part["folds"]
+        row["error"] = row["error"] or part["error"]
+        for key in ("latency_ms", "table_latency_ms"):
+            if key in part:
+                row[key] = part[key]
+        row.setdefault("predictions", {}).update(part.get("predictions", {}))
+        if not row["predictions"]:
+            del row["predictions"]
+
+
+def _results(dataset: Dataset, reducer: str, protocol: str, floors: dict, done: list[int], planned: int,
+             rows: dict, processes: int) -> dict:
+    """The results of the rounds in ``done``, in round order (the order a serial run adds them in);
+    ``processes``: how many fitted rounds side by side (their times were taken beside each other)."""
+    finished = set(done)
+    folds = [f for k in sorted(finished) for f in floors[k]]
+    out = {}
+    for name, row in rows.items():
+        out[name] = {**row, "fits": sorted(row["fits"], key=lambda x: x["round"]),
+                     "folds": sorted(row["folds"], key=lambda x: x["round"])}
     return {"dataset": dataset.name, "reducer": reducer, "protocol": protocol, "rate_hz": dataset.rate_hz,
-            "hapticfx": __version__, "rounds": done, "rounds_planned": planned, "folds": folds, "methods": rows}
+            "hapticfx": __version__, "rounds": len(finished), "rounds_planned": planned, "processes": processes,
+            "folds": folds, "methods": out}
 
 
 def _settings(m: Method) -> dict:

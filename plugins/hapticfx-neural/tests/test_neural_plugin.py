@@ -96,6 +96,24 @@ def test_bench_interpolators_trains_networks_per_round_and_serves_them_from_tabl
     assert "convbilstm-tiny, round 1" in r.stderr and "best epoch" in r.stderr  # each network's epochs, as it trains
 
 
+def test_bench_rounds_of_networks_trained_side_by_side_score_as_serial_rounds(tmp_path, syn_dataset):
+    rows = tmp_path / "rows.yaml"
+    rows.write_text(yaml.safe_dump({"lstm": {"model": TINY_BY_ARCH["lstm"]}}))
+    scores = {}
+    for jobs in ("1", "2"):
+        out = tmp_path / f"bench-{jobs}"
+        r = _cli("bench", "interpolators", "--dataset", str(syn_dataset), "--methods", "lstm", "--max-rounds", "2",
+                 "--epochs", "2", "--repeats", "5", "--config", str(rows), "--out", str(out), "--jobs", jobs)
+        assert r.returncode == 0, r.stderr[-2000:]
+        folds = json.loads((out / "results.json").read_text())["results"]["methods"]["lstm"]["folds"]
+        scores[jobs] = [(f["round"], f["object"], f["velocity"], f["rmse"], f["lsd_db"]) for f in folds]
+    assert scores["2"] == scores["1"] and len({s[0] for s in scores["1"]}) == 2
+    # each process's lines name its round; the networks' epochs come as lines
+    assert "2 rounds in 2 processes" in r.stderr
+    assert "[1/2]   lstm: fitting" not in r.stderr and "[1/2] lstm: fitting" in r.stderr
+    assert "[2/2] lstm: fitted in" in r.stderr and "lstm, round 2: 2/2 epochs" in r.stderr
+
+
 def test_shipped_weights_play_the_brick_with_convbilstm(tmp_path):
     import numpy as np
     import pytest
