@@ -155,7 +155,7 @@ def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, pro
             echo(held(k))
             skip = {name for name, row in rows.items() if row["error"]}
             _merge(rows, _fit_round(dataset, reducer, methods, rounds[k], k, len(rounds), skip=skip,
-                                    timed=untimed if k == to_fit[0] else set(), repeats=repeats, echo=echo))
+                                    timed=untimed if k == to_fit[0] else set(), repeats=repeats, echo=echo)[1])
             finished(k)
     else:
         from joblib import Parallel, delayed
@@ -167,7 +167,7 @@ def run_evaluation(dataset: Dataset, reducer: str, methods: list[Method], *, pro
                                      timed=untimed if k == to_fit[0] else set(), repeats=repeats)
                  for k in to_fit)
         for k, fitted in Parallel(n_jobs=workers, return_as="generator_unordered")(calls):
-            _merge(rows, (k, fitted))
+            _merge(rows, fitted)
             finished(k)
             echo(f"[{k + 1}/{len(rounds)}] done; {len(done)} of {len(rounds)} rounds finished")
     return _results(dataset, reducer, protocol, floors, done, len(rounds), rows, workers)
@@ -207,10 +207,9 @@ def _fit_round(dataset: Dataset | Path, reducer: str, methods: list[Method], rnd
     return k, out
 
 
-def _merge(rows: dict, fitted: tuple[int, dict]) -> None:
+def _merge(rows: dict, fitted: dict) -> None:
     """Add one round's fits and scores (:func:`_fit_round`) to ``rows``; a row keeps its first error."""
-    _, got = fitted
-    for name, part in got.items():
+    for name, part in fitted.items():
         row = rows[name]
         row["fits"] += part["fits"]
         row["folds"] += part["folds"]
@@ -218,9 +217,8 @@ def _merge(rows: dict, fitted: tuple[int, dict]) -> None:
         for key in ("latency_ms", "table_latency_ms"):
             if key in part:
                 row[key] = part[key]
-        row.setdefault("predictions", {}).update(part.get("predictions", {}))
-        if not row["predictions"]:
-            del row["predictions"]
+        if "predictions" in part:
+            row.setdefault("predictions", {}).update(part["predictions"])
 
 
 def _results(dataset: Dataset, reducer: str, protocol: str, floors: dict, done: list[int], planned: int,
