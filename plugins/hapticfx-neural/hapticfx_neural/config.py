@@ -169,9 +169,11 @@ def _check_training(t: dict, source: str) -> None:
         if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):
             raise EffectError(f"expected an integer >= {lo}", source=source, key=f"training.{k}")
     k = t["input_drops"]
-    if k is not None and not (isinstance(k, int) and not isinstance(k, bool) and k >= 1):
-        raise EffectError("expected an integer >= 1 (the most drops a neighbour's input centre is drawn from; "
-                          "null: every drop)", source=source, key="training.input_drops")
+    count = lambda x: isinstance(x, int) and not isinstance(x, bool) and x >= 1  # noqa: E731
+    if not (k is None or count(k) or (isinstance(k, list) and len(k) == 2 and all(map(count, k)) and k[0] <= k[1])):
+        raise EffectError("expected an integer >= 1 (the most drops a neighbour's input centre is drawn from), a "
+                          "range [fewest, most] of such integers, or null (every drop)", source=source,
+                          key="training.input_drops")
     if not (isinstance(t["device"], str) and re.fullmatch(r"cpu|cuda(:\d+)?", t["device"])):
         raise EffectError("expected cpu, cuda or cuda:N (where torch trains; CUDA needs a CUDA build of torch and "
                           "a GPU)", source=source, key="training.device")

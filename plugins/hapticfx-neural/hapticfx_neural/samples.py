@@ -16,7 +16,8 @@ What the network sees and predicts:
   many more times than a user records), a neighbour's centre is that of K drops or fewer
   (K/2 to K drawn at random from all of them in training, the first K for validation) while the target
   stays the centre of every drop: the network learns from clean targets what it will be
-  given from K recorded drops.
+  given from K recorded drops. A range ``[fewest, most]`` draws that many instead (for users who
+  record as few as ``fewest``), and validation takes one draw per pool in that range, fixed by a seed.
 - **Target**: the centre of the target velocity's drops. With ``trim: 0`` its RMSE differs
   from the mean RMSE over every drop by a constant, so it *is* a loss over every drop,
   computed once.
@@ -44,6 +45,8 @@ from hapticfx.errors import DatasetError
 from hapticfx.interfaces import Profile
 from hapticfx.interpolators.ensemble import centres as trimmed_centres
 from hapticfx.interpolators.residual import scale as neighbour_scale, weight
+
+FIXED_INPUT_SEED = 31  # seeds the one fixed draw of each pool's inputs when input_drops is a range
 
 
 @dataclass
@@ -89,8 +92,9 @@ def stack_triples(rows: list[tuple[Profile, Profile, float, np.ndarray | None]],
 @dataclass
 class DropTriples:
     """Triples over pools of drops: ``pools[k]`` is ``(D_k, N)``; ``lo, hi, tgt`` index pools per triple;
-    ``trim``: the fraction of drops cut at each end for a pool's centre (0: the mean); ``input_drops``: the
-    most drops an input centre is drawn from (None: every drop of its pool); ``reps[k]``: the bank's
+    ``trim``: the fraction of drops cut at each end for a pool's centre (0: the mean); ``input_drops``: how many
+    drops an input centre is drawn from: None (half to all of its pool), K (half of K to K) or ``(fewest, most)``;
+    ``reps[k]``: the bank's
     representative of pool ``k`` and ``rate_hz`` the banks' rate, where known (what a profile is served from,
     and what choosing its texture needs)."""
 
@@ -103,7 +107,7 @@ class DropTriples:
     v: np.ndarray
     objects: list[str]
     trim: float = 0.0
-    input_drops: int | None = None
+    input_drops: int | tuple[int, int] | None = None
     reps: list[np.ndarray] | None = None
     rate_hz: float | None = None
 
@@ -120,20 +124,38 @@ class DropTriples:
                            self.v[idx], [self.objects[i] for i in idx], self.trim, self.input_drops, self.reps,
                            self.rate_hz)
 
+    def input_counts(self, k: int) -> tuple[int, int]:
+        """How many of pool ``k``'s drops an input centre is drawn from in training: ``(fewest, most)``."""
+        n = len(self.pools[k])
+        spec = self.input_drops
+        if spec is None or isinstance(spec, int):
+            most = n if spec is None else min(n, spec)
+            return (most + 1) // 2, most
+        return min(n, spec[0]), min(n, spec[1])
+
+    def fixed_inputs(self, k: int) -> np.ndarray:
+        """The drops of pool ``k`` whose centre is its input outside training (validation, scoring): every drop,
+        the first ``input_drops`` K, or, for a range ``[fewest, most]``, one draw in that range fixed by ``k``."""
+        pool, spec = self.pools[k], self.input_drops
+        if spec is None or isinstance(spec, int):
+            return pool if spec is None else pool[:spec]
+        rng = np.random.default_rng([FIXED_INPUT_SEED, k])
+        fewest, most = self.input_counts(k)
+        return pool[np.sort(rng.choice(len(pool), int(rng.integers(fewest, most + 1)), replace=False))]
+
     def centres(self, rng: np.random.Generator | None = None) -> Triples:
-        """Triples whose inputs are the pools' centres; with ``rng``, each that of a random subset of its drops, of
-        half to all of them (of ``input_drops`` where set); without ``rng``, of every drop (the first
-        ``input_drops`` where set)."""
+        """Triples whose inputs are the pools' centres; with ``rng``, each that of a random subset of its drops
+        (:meth:`input_counts` of them, drawn from every drop of the pool); without ``rng``, that of
+        :meth:`fixed_inputs`."""
         full = [pool_centre(p, self.trim) for p in self.pools]
-        given = full if self.input_drops is None else [pool_centre(p[:self.input_drops], self.trim) for p in self.pools]
+        given = {k: pool_centre(self.fixed_inputs(k), self.trim) for k in {*self.lo.tolist(), *self.hi.tolist()}}
 
         def centre(k: int) -> np.ndarray:
-            pool = self.pools[k]
-            n = len(pool) if self.input_drops is None else min(len(pool), self.input_drops)
-            if rng is None or n < 2:
+            fewest, most = self.input_counts(k)
+            if rng is None or most < 2:
                 return given[k]
-            size = int(rng.integers((n + 1) // 2, n + 1))
-            return pool_centre(pool[rng.choice(len(pool), size, replace=False)], self.trim)
+            size = int(rng.integers(fewest, most + 1))
+            return pool_centre(self.pools[k][rng.choice(len(self.pools[k]), size, replace=False)], self.trim)
 
         lc = np.stack([centre(k) for k in self.lo])
         uc = np.stack([centre(k) for k in self.hi])

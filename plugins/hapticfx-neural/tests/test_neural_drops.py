@@ -53,6 +53,31 @@ def test_input_drops_limits_the_inputs_centres_and_leaves_the_target_the_centre_
     assert t.subset([0]).input_drops == 4
 
 
+def test_a_range_of_input_drops_draws_that_many_and_validates_on_one_fixed_draw_in_it():
+    """Pre-training for users who record as few as 3 drops: inputs from 3 to 6 of 12, the target still clean."""
+    import dataclasses
+    import itertools
+
+    rng = np.random.default_rng(2)
+    v = np.array([1.0, 1.1, 1.2])
+    pools = [rng.standard_normal((12, 20)) for _ in v]
+    t = dataclasses.replace(drop_triples([("a", v, pools, [1.1])], gaps=[1]), input_drops=[3, 6])
+    sizes = set()
+    for s in range(60):
+        d = t.centres(np.random.default_rng(s))
+        size = next(k for k in range(1, 13) for c in itertools.combinations(range(12), k)
+                    if k in (3, 4, 5, 6) and np.allclose(d.lower_c[0], pools[0][list(c)].mean(0)))
+        sizes.add(size)
+        assert np.allclose(d.target[0], pools[1].mean(0))
+    assert sizes == {3, 4, 5, 6}  # every count of the range, and no other
+    fixed, again = t.centres(), t.centres()
+    assert np.array_equal(fixed.lower_c, again.lower_c)  # validation sees the same inputs every epoch
+    chosen = t.fixed_inputs(0)
+    assert 3 <= len(chosen) <= 6 and np.allclose(fixed.lower_c[0], chosen.mean(0))
+    assert not np.allclose(fixed.lower_c[0], pools[0].mean(0))
+    assert t.input_counts(0) == (3, 6) and dataclasses.replace(t, input_drops=[3, 40]).input_counts(0) == (3, 12)
+
+
 def test_training_validates_on_what_input_drops_recorded_drops_give():
     from hapticfx_neural.config import MODEL_DEFAULTS, TRAINING_DEFAULTS
     from hapticfx_neural.training import train_network
@@ -73,8 +98,8 @@ def test_training_validates_on_what_input_drops_recorded_drops_give():
     assert abs(one[0] - every[0]) > 0.1 * every[0]  # the first drop alone as each input: another start
 
 
-def test_input_drops_must_be_a_positive_integer_or_null(tmp_path):
-    for bad in (0, -3, 2.5, True, "ten"):
+def test_input_drops_must_be_a_positive_integer_a_range_of_them_or_null(tmp_path):
+    for bad in (0, -3, 2.5, True, "ten", [3], [5, 3], [0, 4], [3, 4, 5], [3, 4.5]):
         path = tmp_path / "c.yaml"
         path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "builtin:helmet-drops",
                                         "training": {"input_drops": bad}}))
@@ -84,6 +109,9 @@ def test_input_drops_must_be_a_positive_integer_or_null(tmp_path):
     path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "builtin:helmet-drops",
                                     "training": {"input_drops": None}}))
     assert load_config(path).training["input_drops"] is None
+    path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "builtin:helmet-drops",
+                                    "training": {"input_drops": [3, 10]}}))
+    assert load_config(path).training["input_drops"] == [3, 10]
 
 
 def test_trimmed_centres_are_the_cores_trimmed_means_for_inputs_draws_and_target():

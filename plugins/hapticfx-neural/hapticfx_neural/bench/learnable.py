@@ -6,8 +6,8 @@ Two measures:
 - **Noise budget**: for every triple, the mean square of (blend of the neighbours' drop means - the target's
   drop mean) against what the sampling noise of those three means alone gives
   (``(1-w)^2 var_L / D_L + w^2 var_U / D_U + var_T / D_T``, per sample). A ratio near 1 means the error is
-  noise that no function of the inputs removes. With the configuration's ``training.input_drops`` K, the
-  neighbours' means are those of their first K drops (``D_L``, ``D_U`` at most K), as training gives them.
+  noise that no function of the inputs removes. With the configuration's ``training.input_drops``, the
+  neighbours' means are those of the drops validation gives them (the first K, or one fixed draw in a range).
 - **Linear learner**: ridge regression from the network's own inputs (the two normalised centres and their
   products with ``w``) to the normalised correction, fitted on the training split and scored on the
   validation split that training uses (whole target pools held out), for a few penalties. If a linear map
@@ -30,10 +30,9 @@ PENALTIES = (1.0, 10.0, 100.0, 1000.0)
 def noise_budget(data) -> tuple[float, float]:
     """Observed and noise-only mean square of the blend of centres against the target's drop mean."""
     obs, noise = [], []
-    k = data.input_drops
     for lo, hi, tg, vl, vh, v in zip(data.lo, data.hi, data.tgt, data.v_lo, data.v_hi, data.v):
         w = (v - vl) / (vh - vl)
-        pl, pu, pt = data.pools[lo][:k], data.pools[hi][:k], data.pools[tg]
+        pl, pu, pt = data.fixed_inputs(lo), data.fixed_inputs(hi), data.pools[tg]
         if min(len(pl), len(pu), len(pt)) < 2:
             continue
         blend = (1 - w) * pl.mean(0) + w * pu.mean(0)
@@ -105,7 +104,9 @@ def learnable(
     obs, noise = noise_budget(data)
     ridge = ridge_scores(data, val_fraction=cfg.training["val_fraction"], seed=cfg.training["seed"],
                          steps=cfg.model["steps"])
-    inputs = "" if data.input_drops is None else f", inputs from the first {data.input_drops} drops"
+    k = data.input_drops
+    inputs = ("" if k is None else f", inputs from the first {k} drops" if isinstance(k, int)
+              else f", inputs from {k[0]}-{k[1]} drops (one fixed draw)")
     typer.echo(f"{meta['name']}: {len(data)} triples, gaps {cfg.gaps}, trim {cfg.trim:g}{inputs}")
     rows = [["blend of drop means vs target drop mean: mean square (g^2)", f"{obs:.5f}"],
             ["the same from the sampling noise of the three means alone", f"{noise:.5f}"],
