@@ -115,3 +115,20 @@ def test_the_command_on_a_dense_simulated_set_prints_the_table_and_writes_json(t
     r = _cli("bench", "ceiling", str(tmp_path / "dense"), "-o", str(tmp_path / "d.json"))
     assert r.returncode == 2 and "13 drops per velocity" in r.stderr and "Traceback" not in r.stderr
     assert not (tmp_path / "d.json").exists()
+    # a row of `bench interpolators --config`: its options reach the interpolator (texture 0: nearer the mean)
+    (tmp_path / "rows.yaml").write_text(yaml.safe_dump({"plain": {"interpolator": "ensemble-warp",
+                                                                  "options": {"texture": 0.0}},
+                                                        "bad": {"interpolator": "ensemble-warp",
+                                                                "options": {"texture": 5.0}}}))
+    r = _cli("bench", "ceiling", str(tmp_path / "dense"), "--recorded", "3", "--method", "plain", "--config",
+             str(tmp_path / "rows.yaml"), "-o", str(tmp_path / "p.json"))
+    assert r.returncode == 0, r.stderr
+    plain = json.loads((tmp_path / "p.json").read_text())
+    assert plain["method"] == "plain" and "gap share plain" in r.stdout
+    assert [f["linear"] for f in plain["folds"]] == [f["linear"] for f in out["folds"]]
+    r = _cli("bench", "ceiling", str(tmp_path / "dense"), "--recorded", "3", "--method", "nope", "--config",
+             str(tmp_path / "rows.yaml"))
+    assert r.returncode == 2 and "unknown method 'nope'" in r.stderr and "Traceback" not in r.stderr
+    r = _cli("bench", "ceiling", str(tmp_path / "dense"), "--recorded", "3", "--method", "bad", "--config",
+             str(tmp_path / "rows.yaml"))
+    assert r.returncode == 2 and "texture must be <= 1.0" in r.stderr and "Traceback" not in r.stderr

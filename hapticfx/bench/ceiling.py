@@ -21,7 +21,11 @@ def ceiling(
                                       "population."),
     method: str = typer.Option("ensemble-warp", "--method", metavar="NAME",
                                help="Interpolator fitted to the recorded drops alone and scored the same way "
-                                    "(leave one velocity out); none: leave it out."),
+                                    "(leave one velocity out), or a row named in --config; none: leave it out."),
+    config: Optional[Path] = typer.Option(None, "--config", metavar="YAML",
+                                          help="Rows as `bench interpolators --config` reads them: row -> "
+                                          "{interpolator, options, model, training} (e.g. a network and how it "
+                                          "trains; docs/neural.md)."),
     reducer: str = typer.Option("max-min", "--reducer", metavar="NAME", help="Which bank of the dataset."),
     out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE", help="Also write the table and every "
                                        "fold as JSON."),
@@ -36,12 +40,10 @@ def ceiling(
     from ..data.training import recorded_drops
     from ..evaluation.ceiling import method_values, object_folds, split, summarise
     from ..evaluation.heldout import resolve
-    from ..registry import get_registry
+    from ..evaluation.runner import methods_from
     from ..timing import table
 
-    if method != "none" and method not in get_registry().names("interpolator"):
-        raise EffectError(f"unknown interpolator {method!r}; installed: "
-                          f"{', '.join(sorted(get_registry().names('interpolator')))} (or none)", key="--method")
+    row = None if method == "none" else methods_from([method], config)[-1]
     ds = open_dataset(resolve(dataset, progress=say))
     if reducer not in ds.reducers():
         raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
@@ -55,8 +57,8 @@ def ceiling(
     folds = [f for o in splits.values() for f in object_folds(o)]
     if not folds:
         raise DatasetError(f"dataset {ds.name!r}: no object has a velocity with recorded neighbours on both sides")
-    scores = None if method == "none" else method_values(splits, method, reducer=reducer, rate_hz=ds.rate_hz,
-                                                          dataset=ds.name, progress=say)
+    scores = None if row is None else method_values(splits, row, reducer=reducer, rate_hz=ds.rate_hz,
+                                                     dataset=ds.name, progress=say)
     rows = summarise(folds, scores)
     pen = lambda p: "-" if p is None else ("none" if not np.isfinite(p) else f"{p:g}")  # noqa: E731
     typer.echo(f"{ds.name} ({reducer}): {recorded} drops per velocity recorded; mean squares against the population "

@@ -102,20 +102,25 @@ def object_folds(o: Split) -> list[Fold]:
     return out
 
 
-def method_values(splits: dict[str, Split], method: str, *, reducer: str, rate_hz: float,
+def method_values(splits: dict[str, Split], method, *, reducer: str, rate_hz: float,
                   dataset: str = "<dense>", progress=None) -> dict[tuple[str, float], float]:
     """An interpolator fitted to the recorded drops alone, as ``bench interpolators --protocol lovo`` fits it
-    (round ``k`` holds out every object's ``k``-th interior velocity): per fold, the same measure as the others."""
+    (round ``k`` holds out every object's ``k``-th interior velocity): per fold, the same measure as the others.
+    ``method``: an interpolator's name, or a row of ``bench interpolators --config``
+    (:class:`~hapticfx.evaluation.runner.Method`: its options and fit settings)."""
     from ..data.bank import ProfileBank
     from ..interfaces import TrainingData
     from ..registry import get_registry
     from .folds import lovo_rounds
+    from .runner import Method
+
+    m = Method(method, method) if isinstance(method, str) else method
 
     banks = {o.object: ProfileBank(o.object, reducer, rate_hz, o.velocities, o.reps) for o in splits.values()}
     out = {}
     for k, rnd in enumerate(lovo_rounds(banks)):
         if progress:
-            progress(f"{method}: round {k + 1}")
+            progress(f"{m.row}: round {k + 1}")
         held = rnd.holdout
         train_banks, drops = {}, {}
         for obj, bank in banks.items():
@@ -125,8 +130,8 @@ def method_values(splits: dict[str, Split], method: str, *, reducer: str, rate_h
             train_banks[obj] = bank
             drops[obj] = (splits[obj].velocities[keep], splits[obj].sample[keep])
         data = TrainingData(train_banks, reducer, dataset, drops, rnd.targets)
-        interp = get_registry().create("interpolator", method)
-        interp.fit(data)
+        interp = get_registry().create("interpolator", m.interpolator, **m.options)
+        interp.fit(data, **m.fit, label=f"{m.row}, round {k + 1}", progress=progress is not None)
         for bank in train_banks.values():
             interp.prepare(bank)
         for f in rnd.folds:
