@@ -148,12 +148,14 @@ class DropTriples:
         (:meth:`input_counts` of them, drawn from every drop of the pool); without ``rng``, that of
         :meth:`fixed_inputs`."""
         full = [pool_centre(p, self.trim) for p in self.pools]
-        given = {k: pool_centre(self.fixed_inputs(k), self.trim) for k in {*self.lo.tolist(), *self.hi.tolist()}}
+        fixed: dict[int, np.ndarray] = {}  # computed for the pools that need it: every input without rng
 
         def centre(k: int) -> np.ndarray:
             fewest, most = self.input_counts(k)
             if rng is None or most < 2:
-                return given[k]
+                if k not in fixed:
+                    fixed[k] = pool_centre(self.fixed_inputs(k), self.trim)
+                return fixed[k]
             size = int(rng.integers(fewest, most + 1))
             return pool_centre(self.pools[k][rng.choice(len(self.pools[k]), size, replace=False)], self.trim)
 
