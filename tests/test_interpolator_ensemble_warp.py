@@ -149,6 +149,26 @@ def test_smoothing_across_velocity_is_chosen_for_a_noisy_still_object_and_never_
     assert "moving" not in moving.smooth_scores
 
 
+def test_centres_without_a_velocity_are_pooled_as_if_it_had_not_been_recorded():
+    # what a network reading pooled centres is trained on: the smoothed object is smoothed again over the other
+    # velocities (compared with the smoother on them, not with the fit's own pool); a centre left as it is stays
+    from hapticfx.interpolators.ensemble import centres
+
+    data = _data(0.0, velocities=tuple(np.linspace(2.0, 5.0, 9)), drops=3, noise=0.1)
+    fit = Fit(data)
+    v, drops = data.drops["brick"]
+    raw = centres(drops, fit.trim)
+    for i in (1, 4, 7):
+        keep = np.arange(len(v)) != i
+        without = fit.centres_without("brick", i)
+        assert without.shape == (len(v) - 1, N)
+        assert np.allclose(without, smoothed_centres(v[keep], raw[keep], fit.smooth["brick"]), rtol=0, atol=1e-12)
+        assert not np.allclose(without, fit.centres["brick"][keep])  # velocity i's drops are not in them
+    clean = Fit(_data(12.0, noise=0.003))  # warped, not shrunk: the centres as they are
+    v, drops = clean.data.drops["brick"]
+    assert np.array_equal(clean.centres_without("brick", 2), np.delete(centres(drops, clean.trim), 2, axis=0))
+
+
 def test_the_smoother_keeps_a_profile_linear_in_velocity_and_tends_to_the_straight_line():
     rng = np.random.default_rng(5)
     v = np.array([2.0, 2.3, 3.1, 3.2, 4.4, 5.0])  # irregular spacing

@@ -317,10 +317,18 @@ class Fit:
         if texture is None:
             self.texture, self.texture_scores = choose_texture(texture_targets(objects, self.penalties, pools, paths))
         self.centres = {obj: pools[obj](o.velocities, o.centres, o.noise) for obj, o in objects.items()}
+        self._objects, self._pools = objects, pools
         self._rate = {obj: o.rate_hz for obj, o in objects.items()}
         self.unwarped: list[tuple[str, int]] = []  # intervals a table serves without their warp (:meth:`unwarp`)
         self._morphs: dict[tuple[str, int], Morph] = {}
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
+
+    def centres_without(self, obj: str, i: int) -> np.ndarray:
+        """``obj``'s centres pooled as fitted from every recorded velocity but ``i``: ``(V - 1, N)``, what a
+        left-out training target's neighbours would be had ``i`` not been recorded."""
+        o = self._objects[obj]
+        keep = np.arange(len(o.velocities)) != i
+        return self._pools[obj](o.velocities[keep], o.centres[keep], o.noise[keep])
 
     def _pool(self, obj: str, paths: dict):
         """How ``obj``'s choices pool its centres, as ``pool(velocities, centres, noise)``: smoothed, shrunk or

@@ -14,6 +14,8 @@ import yaml
 
 from hapticfx.errors import EffectError
 
+from .samples import POOLED
+
 ARCHS = ("convbilstm", "lstm", "bilstm", "lstm-sae", "bilstm-ed", "convlstm-ed")
 
 # Paper Sect. 4.2 / 5.1. Table 3 gives sizes only for `lstm` (200) and `bilstm`
@@ -42,7 +44,9 @@ TRAINING_DEFAULTS = {
     "patience": 30, "seed": 0, "threads": 1, "augment": True, "input_drops": None, "device": "cpu",
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
-            "gaps", "trim", "texture", "init", "model", "training", "out")
+            "gaps", "trim", "texture", "inputs", "init", "model", "training", "out")
+# What the network reads of each neighbour: its drop centre, or the centres ensemble-warp pools across velocity.
+INPUTS = ("centres", POOLED)
 # How much of the recorded neighbours' fine detail a trained network's profiles keep (the core's
 # hapticfx.interpolators.texture): a share in [0, 1], or CHOOSE to pick it on the validation targets after training.
 CHOOSE = "choose"
@@ -62,6 +66,7 @@ class TrainConfig:
     gaps: list[int] = field(default_factory=lambda: [1])
     trim: float = 0.0
     texture: float | str = 0.0
+    inputs: str = "centres"
     init: str | None = None
     model: dict = field(default_factory=dict)
     training: dict = field(default_factory=dict)
@@ -97,6 +102,9 @@ class TrainConfig:
                                   f"profiles keep) or {CHOOSE} (chosen on the validation targets)", source=self.source,
                                   key="texture")
             self.texture = float(self.texture)
+        if self.inputs not in INPUTS:
+            raise EffectError(f"expected one of {', '.join(INPUTS)} (what the network reads of each neighbour)",
+                              source=self.source, key="inputs")
         if self.init is not None and not isinstance(self.init, str):
             raise EffectError("expected a checkpoint path (string)", source=self.source, key="init")
         if self.objects is not None and not (isinstance(self.objects, list) and all(isinstance(o, str) for o in self.objects)):

@@ -21,7 +21,7 @@ from hapticfx.interpolators.table import TableServed, VelocityTable, neighbours
 from hapticfx.signal import valid_number
 
 from . import checkpoint
-from .samples import Centres, Triples, stack_triples
+from .samples import POOLED, Centres, Triples, stack_triples
 
 
 def require_torch(why: str) -> None:
@@ -80,17 +80,24 @@ class NeuralInterpolator(TableServed):
         cfg.training.update(options.get("training") or {})
         cfg.model.update(options.get("model") or {})
         triples, targets = triples_of(data, gaps=cfg.gaps, trim=cfg.trim)
+        centres = None
+        if cfg.inputs == POOLED:
+            from .pooled import pooled_centres, pooled_triples, pooling
+
+            fit = pooling(data)
+            triples, centres = pooled_triples(data, triples, fit), pooled_centres(data, fit, cfg.trim)
         init = options.get("init", cfg.init_path())
         self.net, self.meta = train_network(
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
             label=options.get("label"), init=None if init is None else checkpoint.resolve(init), texture=cfg.texture,
             dataset_meta={"name": data.dataset, "reducer": data.reducer, "objects": list(data.banks),
-                          "targets": targets, "gaps": list(cfg.gaps), "trim": cfg.trim})
+                          "targets": targets, "gaps": list(cfg.gaps), "trim": cfg.trim, "inputs": cfg.inputs})
         self.net = self.net.double()  # served in float64, like its table
         self.table = None
-        self.centres = Centres(cfg.trim)
-        for obj, bank in data.banks.items():
-            self.centres.add(bank, data.drops.get(obj))
+        self.centres = centres or Centres(cfg.trim)
+        if centres is None:
+            for obj, bank in data.banks.items():
+                self.centres.add(bank, data.drops.get(obj))
         return {**{k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")},
                 "texture": (self.meta.get("texture") or {}).get("share", 0.0)}
 
@@ -117,9 +124,9 @@ class NeuralInterpolator(TableServed):
                 self.load(path, dataset=name, reducer=bank.reducer)
             checkpoint.check_compatible(self.meta, path, arch=self.arch, n_samples=bank.n_samples)
             if dataset is not None:
-                from hapticfx.data.training import recorded_drops
+                from .tables import dataset_centres
 
-                self.centres.add(bank, recorded_drops(dataset, bank.object, bank.reducer))
+                self.centres = dataset_centres(self.meta, dataset, [bank.object], bank.reducer)
             return
         if self.table is None:
             meta = checkpoint.read_meta(path)

@@ -9,7 +9,7 @@ from hapticfx.errors import DatasetError
 from hapticfx.progress import say
 
 from .config import TrainConfig
-from .samples import DropTriples, concat, drop_triples, object_pools
+from .samples import POOLED, DropTriples, concat, drop_triples, object_pools
 
 
 def triples_of(data, *, gaps: list[int], trim: float = 0.0, targets: dict[str, list[float]] | None = None,
@@ -63,13 +63,17 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
         wanted = None if cfg.train_velocities is None else {o: cfg.train_velocities for o in objects}
         prefix = f"{ds.name}/" if len(datasets) > 1 else ""
         part, chosen = triples_of(data, gaps=cfg.gaps, trim=cfg.trim, targets=wanted, prefix=prefix)
+        if cfg.inputs == POOLED:
+            from .pooled import pooled_triples, pooling
+
+            part = pooled_triples(data, part, pooling(data), prefix)
         parts.append(part)
         targets.update({prefix + o: v for o, v in chosen.items()})
     first = datasets[0]
     meta = {"name": first.name if len(datasets) == 1 else f"{first.name}+{len(datasets) - 1}",
             "ref": dataset_ref(first) if len(datasets) == 1 else None, "reducer": cfg.reducer,
             "objects": list(targets), "targets": targets, "holdout": list(cfg.holdout_velocities),
-            "gaps": list(cfg.gaps), "trim": cfg.trim}
+            "gaps": list(cfg.gaps), "trim": cfg.trim, "inputs": cfg.inputs}
     if len(datasets) > 1:
         meta["datasets"] = [dataset_ref(d) for d in datasets]
     return datasets, concat(parts), meta

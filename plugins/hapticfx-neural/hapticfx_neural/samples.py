@@ -18,6 +18,8 @@ What the network sees and predicts:
   stays the centre of every drop: the network learns from clean targets what it will be
   given from K recorded drops. A range ``[fewest, most]`` draws that many instead (for users who
   record as few as ``fewest``), and validation takes one draw per pool in that range, fixed by a seed.
+- **Pooled inputs** (``inputs: pooled``): the neighbours' centres as ``ensemble-warp`` pools them across
+  velocity, fixed per triple (``given``; :mod:`.pooled`), instead of drawn from their drops.
 - **Target**: the centre of the target velocity's drops. With ``trim: 0`` its RMSE differs
   from the mean RMSE over every drop by a constant, so it *is* a loss over every drop,
   computed once.
@@ -46,6 +48,7 @@ from hapticfx.interfaces import Profile
 from hapticfx.interpolators.ensemble import centres as trimmed_centres
 from hapticfx.interpolators.residual import scale as neighbour_scale, weight
 
+POOLED = "pooled"  # config ``inputs``: the neighbours' centres pooled across velocity (:mod:`.pooled`)
 FIXED_INPUT_SEED = 31  # seeds the one fixed draw of each pool's inputs when input_drops is a range
 
 
@@ -96,7 +99,8 @@ class DropTriples:
     drops an input centre is drawn from: None (half to all of its pool), K (half of K to K) or ``(fewest, most)``;
     ``reps[k]``: the bank's
     representative of pool ``k`` and ``rate_hz`` the banks' rate, where known (what a profile is served from,
-    and what choosing its texture needs)."""
+    and what choosing its texture needs); ``given``: each triple's inputs ``(lower (n, N), upper (n, N))`` where
+    they are not drawn from the pools (pooled inputs, :mod:`.pooled`)."""
 
     pools: list[np.ndarray]
     lo: np.ndarray
@@ -110,6 +114,7 @@ class DropTriples:
     input_drops: int | tuple[int, int] | None = None
     reps: list[np.ndarray] | None = None
     rate_hz: float | None = None
+    given: tuple[np.ndarray, np.ndarray] | None = None
 
     def __len__(self) -> int:
         return int(self.v.shape[0])
@@ -122,7 +127,7 @@ class DropTriples:
         idx = np.asarray(idx, dtype=int)
         return DropTriples(self.pools, self.lo[idx], self.hi[idx], self.tgt[idx], self.v_lo[idx], self.v_hi[idx],
                            self.v[idx], [self.objects[i] for i in idx], self.trim, self.input_drops, self.reps,
-                           self.rate_hz)
+                           self.rate_hz, None if self.given is None else (self.given[0][idx], self.given[1][idx]))
 
     def input_counts(self, k: int) -> tuple[int, int]:
         """How many of pool ``k``'s drops an input centre is drawn from in training: ``(fewest, most)``."""
@@ -148,6 +153,10 @@ class DropTriples:
         (:meth:`input_counts` of them, drawn from every drop of the pool); without ``rng``, that of
         :meth:`fixed_inputs`."""
         full = [pool_centre(p, self.trim) for p in self.pools]
+        if self.given is not None:
+            lc, uc = self.given
+            return Triples(lc, uc, lc, uc, self.v_lo, self.v_hi, self.v, np.stack([full[k] for k in self.tgt]),
+                           self.objects)
         fixed: dict[int, np.ndarray] = {}  # computed for the pools that need it: every input without rng
 
         def centre(k: int) -> np.ndarray:
@@ -222,9 +231,13 @@ def concat(parts: list[DropTriples]) -> DropTriples:
         pools.extend(p.pools)
         offset += len(p.pools)
     reps = None if any(p.reps is None for p in parts) else [r for p in parts for r in p.reps]
+    if len({p.given is None for p in parts}) > 1:
+        raise DatasetError("triples with pooled and with raw inputs cannot train one network")
+    given = None if parts[0].given is None else tuple(np.concatenate([p.given[j] for p in parts]) for j in (0, 1))
     return DropTriples(pools, *(np.concatenate(idx[k]) for k in ("lo", "hi", "tgt")),
                        *(np.concatenate([getattr(p, k) for p in parts]) for k in ("v_lo", "v_hi", "v")),
-                       sum((p.objects for p in parts), []), parts[0].trim, reps=reps, rate_hz=rates.pop())
+                       sum((p.objects for p in parts), []), parts[0].trim, reps=reps, rate_hz=rates.pop(),
+                       given=given)
 
 
 def encode(t: Triples, *, steps: int, v_mean: float, v_std: float):
@@ -298,6 +311,11 @@ class Centres:
     @staticmethod
     def _key(velocity: float, samples: np.ndarray) -> tuple:
         return float(velocity), hash(np.ascontiguousarray(samples, np.float64).tobytes())
+
+    def set(self, bank, centres: np.ndarray) -> None:
+        """``centres[k]`` is the input for ``bank``'s representative ``k`` (pooled inputs)."""
+        for v, profile, c in zip(bank.velocities, bank.profiles, centres):
+            self._by_key[self._key(v, profile)] = np.asarray(c, np.float64)
 
     def add(self, bank, drops) -> None:
         for v, profile, pool in zip(bank.velocities, bank.profiles, object_pools(bank, drops)):

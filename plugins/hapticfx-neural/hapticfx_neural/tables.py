@@ -12,7 +12,7 @@ from hapticfx.interfaces import Profile
 from hapticfx.interpolators.table import DEFAULT_TOLERANCE, VelocityTable, build_table
 
 from . import checkpoint
-from .samples import Centres, stack_triples
+from .samples import POOLED, Centres, stack_triples
 
 
 def network_table(net, meta: dict, banks: list, dataset: str, centres: Centres, *,
@@ -41,13 +41,25 @@ def write_table(weights: Path, dataset: Dataset, *, progress: Callable[[str], No
     """Build and write the table of the checkpoint ``weights`` for ``dataset``; returns its path."""
     from .training import load_network
 
-    from hapticfx.data.training import recorded_drops
-
     meta = checkpoint.read_meta(weights)
     net, meta = load_network(weights, arch=meta["interpolator"], dataset=dataset.name)
     reducer = meta["dataset"]["reducer"]
     banks = [dataset.bank(obj, reducer) for obj in dataset.objects]
-    centres = Centres.of(meta)
-    for bank in banks:
-        centres.add(bank, recorded_drops(dataset, bank.object, reducer))
+    centres = dataset_centres(meta, dataset, dataset.objects, reducer)
     return network_table(net, meta, banks, dataset.name, centres, progress=progress).save(checkpoint.table_path(weights))
+
+
+def dataset_centres(meta: dict, dataset: Dataset, objects: list[str], reducer: str) -> Centres:
+    """The network's inputs for ``objects`` of ``dataset``: their drop centres, or those centres pooled across
+    velocity for a checkpoint trained on pooled inputs (:mod:`.pooled`, fitted again from the drops)."""
+    from hapticfx.data.training import recorded_drops, training_data
+
+    if meta["dataset"].get("inputs") == POOLED:
+        from .pooled import pooled_centres, pooling
+
+        data = training_data(dataset, reducer, objects)
+        return pooled_centres(data, pooling(data), meta["dataset"]["trim"])
+    centres = Centres.of(meta)
+    for obj in objects:
+        centres.add(dataset.bank(obj, reducer), recorded_drops(dataset, obj, reducer))
+    return centres
