@@ -172,12 +172,12 @@ def test_an_untrained_network_serves_the_blend_drawn_toward_the_centres(drop_dat
         assert np.allclose(out, want, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("trim", [0.0, 0.4])
-def test_training_from_drops_serves_a_table_equal_to_direct_inference(tmp_path, drop_dataset, trim):
+@pytest.mark.parametrize("trim, inputs", [(0.0, "centres"), (0.4, "centres"), (0.1, "pooled")])
+def test_training_from_drops_serves_a_table_equal_to_direct_inference(tmp_path, drop_dataset, trim, inputs):
     cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=2))
-    cfg.trim = trim
+    cfg.trim, cfg.inputs = trim, inputs
     meta, path = train_from_config(cfg, progress=False)
-    assert meta["dataset"]["trim"] == trim
+    assert meta["dataset"]["trim"] == trim and meta["dataset"]["inputs"] == inputs
     t = meta["training"]
     assert t["epochs_run"] == 2 and len(t["history"]) == 2 and t["start_val_rmse_normalised"] is None  # 4 targets
     assert meta["dataset"]["targets"] == {"wood-beam": [2.8, 3.1, 3.4, 3.7]}
@@ -188,6 +188,11 @@ def test_training_from_drops_serves_a_table_equal_to_direct_inference(tmp_path, 
     tabled.prepare(bank, dataset=ds)
     direct.prepare(bank, dataset=ds)
     assert tabled.net is None
+    if inputs == "pooled":  # served from the centres ensemble-warp pools, fitted again from the dataset's drops
+        from hapticfx_neural.pooled import pooling
+
+        want = pooling(training_data(ds, "max-min", ["wood-beam"])).centres["wood-beam"]
+        assert all(np.array_equal(direct.centres(bank[k]), want[k]) for k in range(len(bank)))
     for v in np.linspace(2.41, 3.99, 37):
         lo, hi = bank.neighbours(float(v))
         a, b = tabled.interpolate(lo, hi, float(v)), direct.interpolate(lo, hi, float(v))

@@ -5,17 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from neural_testkit import TINY, tiny_config
+from neural_testkit import TINY
 
 from hapticfx.data.bank import ProfileBank
-from hapticfx.data.dataset import open_dataset
-from hapticfx.data.training import training_data
 from hapticfx.errors import EffectError
 from hapticfx.interfaces import TrainingData
 from hapticfx.registry import get_registry
 from hapticfx_neural.config import load_config
 from hapticfx_neural.pooled import pooled_triples, pooling
-from hapticfx_neural.run import train_from_config, triples_of
+from hapticfx_neural.run import triples_of
 
 N = 100
 
@@ -68,25 +66,6 @@ def test_a_network_fitted_on_pooled_inputs_reads_the_centres_pooled_over_every_v
         assert np.array_equal(interp.centres(bank[k]), want[k])
     out = interp.interpolate(bank[3], bank[4], float(0.5 * (bank.velocities[3] + bank.velocities[4])))
     assert out.shape == (N,) and np.all(np.isfinite(out))
-
-
-def test_pooled_training_serves_a_table_equal_to_direct_inference(tmp_path, drop_dataset):
-    cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=1))
-    cfg.inputs = "pooled"
-    meta, path = train_from_config(cfg, progress=False)
-    assert meta["dataset"]["inputs"] == "pooled"
-    ds = open_dataset(drop_dataset)
-    bank = ds.bank("wood-beam", "max-min")
-    tabled = get_registry().create("interpolator", "convbilstm", weights=str(path))
-    direct = get_registry().create("interpolator", "convbilstm", weights=str(path), cache=False)
-    tabled.prepare(bank, dataset=ds)
-    direct.prepare(bank, dataset=ds)
-    want = pooling(training_data(ds, "max-min", ["wood-beam"])).centres["wood-beam"]
-    assert all(np.array_equal(direct.centres(bank[k]), want[k]) for k in range(len(bank)))
-    for v in np.linspace(2.41, 3.99, 23):
-        lo, hi = bank.neighbours(float(v))
-        a, b = tabled.interpolate(lo, hi, float(v)), direct.interpolate(lo, hi, float(v))
-        assert np.max(np.abs(a - b)) <= 1e-6 * np.max(np.abs(b))
 
 
 @pytest.mark.parametrize("bad", ["raw", 1, None])
