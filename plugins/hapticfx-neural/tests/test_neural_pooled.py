@@ -75,3 +75,12 @@ def test_inputs_must_name_what_the_network_reads(tmp_path, bad):
     with pytest.raises(EffectError) as err:
         load_config(path)
     assert str(path) in str(err.value) and "inputs" in str(err.value) and "pooled" in str(err.value)
+
+
+def test_pooled_inputs_refuse_input_drops_which_draws_raw_centres(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "x", "inputs": "pooled",
+                                    "training": {"input_drops": 10}}))
+    with pytest.raises(EffectError) as err:
+        load_config(path)
+    assert str(path) in str(err.value) and "training.input_drops" in str(err.value)
