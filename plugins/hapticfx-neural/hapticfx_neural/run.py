@@ -48,8 +48,9 @@ def dataset_ref(dataset) -> str:
     return BUILTIN_PREFIX + dataset.path.name if dataset.path.parent == BUILTIN_DIR else str(dataset.path.resolve())
 
 
-def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
-    """The datasets of ``cfg``, their triples and what the checkpoint records about them."""
+def config_triples(cfg: TrainConfig, *, progress: bool = False) -> tuple[list, DropTriples, dict]:
+    """The datasets of ``cfg``, their triples and what the checkpoint records about them (``progress``: say what
+    takes a while, pooling inputs)."""
     from hapticfx.data.training import training_data
 
     base = Path(cfg.source).parent if cfg.source != "<config>" else None
@@ -64,9 +65,12 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
         prefix = f"{ds.name}/" if len(datasets) > 1 else ""
         part, chosen = triples_of(data, gaps=cfg.gaps, trim=cfg.trim, targets=wanted, prefix=prefix)
         if cfg.inputs == POOLED:
-            from .pooled import pooled_triples, pooling
+            from .pooled import drop_sets, pooled_triples, pooling
 
-            part = pooled_triples(data, part, pooling(data), prefix)
+            sets = drop_sets(data, cfg.training["input_drops"])
+            if progress:
+                say(f"pooled inputs: {ds.name}, {len(sets)} drop set{'s' if len(sets) > 1 else ''}")
+            part = pooled_triples(data, part, [pooling(d) for d in sets], prefix)
         parts.append(part)
         targets.update({prefix + o: v for o, v in chosen.items()})
     first = datasets[0]
@@ -87,7 +91,7 @@ def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool 
     from .tables import write_table
     from .training import train_network
 
-    datasets, data, meta_ds = config_triples(cfg)
+    datasets, data, meta_ds = config_triples(cfg, progress=progress)
     out = cfg.out_dir(meta_ds["name"])
     init = None
     if cfg.init is not None:
