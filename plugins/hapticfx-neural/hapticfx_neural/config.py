@@ -105,6 +105,9 @@ class TrainConfig:
         if self.inputs not in INPUTS:
             raise EffectError(f"expected one of {', '.join(INPUTS)} (what the network reads of each neighbour)",
                               source=self.source, key="inputs")
+        if self.inputs == POOLED and self.training["input_drops"] is not None:
+            raise EffectError("expected null with inputs: pooled (pooled inputs are pooled from every drop; "
+                              "input_drops draws raw centres)", source=self.source, key="training.input_drops")
         if self.init is not None and not isinstance(self.init, str):
             raise EffectError("expected a checkpoint path (string)", source=self.source, key="init")
         if self.objects is not None and not (isinstance(self.objects, list) and all(isinstance(o, str) for o in self.objects)):

@@ -82,11 +82,10 @@ class NeuralInterpolator(TableServed):
         triples, targets = triples_of(data, gaps=cfg.gaps, trim=cfg.trim)
         centres = None
         if cfg.inputs == POOLED:
-            from .pooled import drop_sets, pooled_centres, pooled_triples, pooling
+            from .pooled import pooled_centres, pooled_triples, pooling
 
-            fits = [pooling(d) for d in drop_sets(data, cfg.training["input_drops"])]
-            triples = pooled_triples(data, triples, fits)
-            centres = pooled_centres(data, fits[0] if cfg.training["input_drops"] is None else pooling(data), cfg.trim)
+            fit = pooling(data)
+            triples, centres = pooled_triples(data, triples, fit), pooled_centres(data, fit, cfg.trim)
         init = options.get("init", cfg.init_path())
         self.net, self.meta = train_network(
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),

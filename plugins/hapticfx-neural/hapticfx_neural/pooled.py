@@ -17,7 +17,7 @@ import numpy as np
 
 from hapticfx.interfaces import TrainingData
 
-from .samples import FIXED_INPUT_SEED, Centres, DropTriples
+from .samples import Centres, DropTriples
 
 
 def pooling(data: TrainingData):
@@ -27,41 +27,20 @@ def pooling(data: TrainingData):
     return Fit(data, texture=0.0)
 
 
-def drop_sets(data: TrainingData, input_drops: int | list[int] | None) -> list[TrainingData]:
-    """What the inputs are pooled from: every drop (``input_drops`` null), or for each count K (K itself, or every
-    count of ``[fewest, most]``) K of each velocity's drops, drawn once by a seed (pre-training on a rig recorded
-    far more often than a user records, as ``training.input_drops`` draws raw centres)."""
-    if input_drops is None:
-        return [data]
-    counts = [input_drops] if isinstance(input_drops, int) else range(input_drops[0], input_drops[1] + 1)
-    sets = []
-    for k in counts:
-        drops = {}
-        for obj, (velocities, d) in data.drops.items():
-            pick = np.random.default_rng([FIXED_INPUT_SEED, k]).choice(d.shape[1], min(k, d.shape[1]), replace=False)
-            drops[obj] = (velocities, d[:, np.sort(pick)])
-        sets.append(dataclasses.replace(data, drops=drops))
-    return sets
-
-
-def pooled_triples(data: TrainingData, triples: DropTriples, fits: list, prefix: str = "") -> DropTriples:
-    """``triples`` (of ``data``'s objects, named ``prefix + object``) with their inputs pooled by each of ``fits``
-    (one alternative each) without each triple's target velocity."""
-    given = ([], [])
-    for fit in fits:
-        without: dict[tuple[str, int], np.ndarray] = {}
-        lc, uc = [], []
-        for n, name in enumerate(triples.objects):
-            obj = name[len(prefix):]
-            bank = data.banks[obj]
-            i, lo, hi = (bank.index_of(float(x)) for x in (triples.v[n], triples.v_lo[n], triples.v_hi[n]))
-            if (obj, i) not in without:
-                without[(obj, i)] = fit.centres_without(obj, i)
-            lc.append(without[(obj, i)][lo])
-            uc.append(without[(obj, i)][hi - 1])  # above i, every kept velocity moves down one
-        given[0].append(np.stack(lc))
-        given[1].append(np.stack(uc))
-    return dataclasses.replace(triples, given=(np.stack(given[0]), np.stack(given[1])))
+def pooled_triples(data: TrainingData, triples: DropTriples, fit, prefix: str = "") -> DropTriples:
+    """``triples`` (of ``data``'s objects, named ``prefix + object``) with their inputs pooled by ``fit`` without
+    each triple's target velocity."""
+    without: dict[tuple[str, int], np.ndarray] = {}
+    lc, uc = [], []
+    for n, name in enumerate(triples.objects):
+        obj = name[len(prefix):]
+        bank = data.banks[obj]
+        i, lo, hi = (bank.index_of(float(x)) for x in (triples.v[n], triples.v_lo[n], triples.v_hi[n]))
+        if (obj, i) not in without:
+            without[(obj, i)] = fit.centres_without(obj, i)
+        lc.append(without[(obj, i)][lo])
+        uc.append(without[(obj, i)][hi - 1])  # above i, every kept velocity moves down one
+    return dataclasses.replace(triples, given=(np.stack(lc), np.stack(uc)))
 
 
 def pooled_centres(data: TrainingData, fit, trim: float) -> Centres:

@@ -48,9 +48,8 @@ def dataset_ref(dataset) -> str:
     return BUILTIN_PREFIX + dataset.path.name if dataset.path.parent == BUILTIN_DIR else str(dataset.path.resolve())
 
 
-def config_triples(cfg: TrainConfig, *, progress: bool = False) -> tuple[list, DropTriples, dict]:
-    """The datasets of ``cfg``, their triples and what the checkpoint records about them (``progress``: say what
-    takes a while, pooling inputs)."""
+def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
+    """The datasets of ``cfg``, their triples and what the checkpoint records about them."""
     from hapticfx.data.training import training_data
 
     base = Path(cfg.source).parent if cfg.source != "<config>" else None
@@ -65,12 +64,9 @@ def config_triples(cfg: TrainConfig, *, progress: bool = False) -> tuple[list, D
         prefix = f"{ds.name}/" if len(datasets) > 1 else ""
         part, chosen = triples_of(data, gaps=cfg.gaps, trim=cfg.trim, targets=wanted, prefix=prefix)
         if cfg.inputs == POOLED:
-            from .pooled import drop_sets, pooled_triples, pooling
+            from .pooled import pooled_triples, pooling
 
-            sets = drop_sets(data, cfg.training["input_drops"])
-            if progress:
-                say(f"pooled inputs: {ds.name}, {len(sets)} drop set{'s' if len(sets) > 1 else ''}")
-            part = pooled_triples(data, part, [pooling(d) for d in sets], prefix)
+            part = pooled_triples(data, part, pooling(data), prefix)
         parts.append(part)
         targets.update({prefix + o: v for o, v in chosen.items()})
     first = datasets[0]
@@ -91,7 +87,7 @@ def train_from_config(cfg: TrainConfig, *, resume: bool = False, progress: bool 
     from .tables import write_table
     from .training import train_network
 
-    datasets, data, meta_ds = config_triples(cfg, progress=progress)
+    datasets, data, meta_ds = config_triples(cfg)
     out = cfg.out_dir(meta_ds["name"])
     init = None
     if cfg.init is not None:

@@ -19,9 +19,7 @@ What the network sees and predicts:
   given from K recorded drops. A range ``[fewest, most]`` draws that many instead (for users who
   record as few as ``fewest``), and validation takes one draw per pool in that range, fixed by a seed.
 - **Pooled inputs** (``inputs: pooled``): the neighbours' centres as ``ensemble-warp`` pools them across
-  velocity (``given``; :mod:`.pooled`), instead of drawn from their drops: pooled from every drop, or with
-  ``input_drops`` from fixed subsets of K drops (one per count of the range), one subset's at random per
-  triple and epoch.
+  velocity, fixed per triple (``given``; :mod:`.pooled`), instead of drawn from their drops.
 - **Target**: the centre of the target velocity's drops. With ``trim: 0`` its RMSE differs
   from the mean RMSE over every drop by a constant, so it *is* a loss over every drop,
   computed once.
@@ -101,9 +99,8 @@ class DropTriples:
     drops an input centre is drawn from: None (half to all of its pool), K (half of K to K) or ``(fewest, most)``;
     ``reps[k]``: the bank's
     representative of pool ``k`` and ``rate_hz`` the banks' rate, where known (what a profile is served from,
-    and what choosing its texture needs); ``given``: each triple's inputs ``(lower (A, n, N), upper (A, n, N))``
-    where they are not drawn from the pools (pooled inputs, :mod:`.pooled`): ``A`` alternatives, one of them
-    taken at random per triple and epoch in training."""
+    and what choosing its texture needs); ``given``: each triple's inputs ``(lower (n, N), upper (n, N))`` where
+    they are not drawn from the pools (pooled inputs, :mod:`.pooled`)."""
 
     pools: list[np.ndarray]
     lo: np.ndarray
@@ -130,7 +127,7 @@ class DropTriples:
         idx = np.asarray(idx, dtype=int)
         return DropTriples(self.pools, self.lo[idx], self.hi[idx], self.tgt[idx], self.v_lo[idx], self.v_hi[idx],
                            self.v[idx], [self.objects[i] for i in idx], self.trim, self.input_drops, self.reps,
-                           self.rate_hz, None if self.given is None else (self.given[0][:, idx], self.given[1][:, idx]))
+                           self.rate_hz, None if self.given is None else (self.given[0][idx], self.given[1][idx]))
 
     def input_counts(self, k: int) -> tuple[int, int]:
         """How many of pool ``k``'s drops an input centre is drawn from in training: ``(fewest, most)``."""
@@ -151,24 +148,13 @@ class DropTriples:
         fewest, most = self.input_counts(k)
         return pool[np.sort(rng.choice(len(pool), int(rng.integers(fewest, most + 1)), replace=False))]
 
-    def fixed_alternatives(self) -> np.ndarray:
-        """Which of the ``given`` inputs each triple takes outside training: one drawn per triple, fixed by a seed
-        and the triple's pools (the only one where there is one)."""
-        count = len(self.given[0])
-        if count == 1:
-            return np.zeros(len(self), dtype=int)
-        return np.array([np.random.default_rng([FIXED_INPUT_SEED, lo, hi, tg]).integers(count)
-                         for lo, hi, tg in zip(self.lo, self.hi, self.tgt)])
-
     def centres(self, rng: np.random.Generator | None = None) -> Triples:
         """Triples whose inputs are the pools' centres; with ``rng``, each that of a random subset of its drops
         (:meth:`input_counts` of them, drawn from every drop of the pool); without ``rng``, that of
         :meth:`fixed_inputs`."""
         full = [pool_centre(p, self.trim) for p in self.pools]
         if self.given is not None:
-            rows = np.arange(len(self))
-            alt = self.fixed_alternatives() if rng is None else rng.integers(len(self.given[0]), size=len(self))
-            lc, uc = self.given[0][alt, rows], self.given[1][alt, rows]
+            lc, uc = self.given
             return Triples(lc, uc, lc, uc, self.v_lo, self.v_hi, self.v, np.stack([full[k] for k in self.tgt]),
                            self.objects)
         fixed: dict[int, np.ndarray] = {}  # computed for the pools that need it: every input without rng
@@ -247,10 +233,7 @@ def concat(parts: list[DropTriples]) -> DropTriples:
     reps = None if any(p.reps is None for p in parts) else [r for p in parts for r in p.reps]
     if len({p.given is None for p in parts}) > 1:
         raise DatasetError("triples with pooled and with raw inputs cannot train one network")
-    if parts[0].given is not None and len({len(p.given[0]) for p in parts}) > 1:
-        raise DatasetError("triples pooled from different numbers of drop sets cannot train one network")
-    given = None if parts[0].given is None else tuple(np.concatenate([p.given[j] for p in parts], axis=1)
-                                                      for j in (0, 1))
+    given = None if parts[0].given is None else tuple(np.concatenate([p.given[j] for p in parts]) for j in (0, 1))
     return DropTriples(pools, *(np.concatenate(idx[k]) for k in ("lo", "hi", "tgt")),
                        *(np.concatenate([getattr(p, k) for p in parts]) for k in ("v_lo", "v_hi", "v")),
                        sum((p.objects for p in parts), []), parts[0].trim, reps=reps, rate_hz=rates.pop(),

@@ -12,7 +12,7 @@ from hapticfx.errors import EffectError
 from hapticfx.interfaces import TrainingData
 from hapticfx.registry import get_registry
 from hapticfx_neural.config import load_config
-from hapticfx_neural.pooled import drop_sets, pooled_triples, pooling
+from hapticfx_neural.pooled import pooled_triples, pooling
 from hapticfx_neural.run import triples_of
 
 N = 100
@@ -34,7 +34,7 @@ def test_a_triples_inputs_are_its_neighbours_centres_pooled_without_its_target()
     fit = pooling(data)
     assert fit.smooth["brick"] is not None or fit.shrink["brick"]  # 3 noisy drops: this object is pooled
     triples, _ = triples_of(data, gaps=[1, 2], trim=0.1)
-    pooled = pooled_triples(data, triples, [fit])
+    pooled = pooled_triples(data, triples, fit)
     v = data.banks["brick"].velocities
     left_out_mattered = False
     for n in range(len(triples)):
@@ -42,14 +42,14 @@ def test_a_triples_inputs_are_its_neighbours_centres_pooled_without_its_target()
         kept = np.delete(v, i)
         without = fit.centres_without("brick", i)
         lo, hi = (int(np.flatnonzero(kept == x)[0]) for x in (triples.v_lo[n], triples.v_hi[n]))
-        assert np.array_equal(pooled.given[0][0, n], without[lo]) and np.array_equal(pooled.given[1][0, n], without[hi])
+        assert np.array_equal(pooled.given[0][n], without[lo]) and np.array_equal(pooled.given[1][n], without[hi])
         left_out_mattered |= not np.allclose(without[lo], fit.centres["brick"][int(np.flatnonzero(v == v[i - 1])[0])])
     assert left_out_mattered
     # the inputs are fixed, drawn or not; the target stays the centre of the target's drops
     drawn, full = pooled.centres(np.random.default_rng(0)), triples.centres()
-    assert np.array_equal(drawn.lower_c, pooled.given[0][0]) and np.array_equal(drawn.target, full.target)
+    assert np.array_equal(drawn.lower_c, pooled.given[0]) and np.array_equal(drawn.target, full.target)
     sub = pooled.subset([3, 1])
-    assert np.array_equal(sub.centres().upper_c, pooled.given[1][0, [3, 1]])
+    assert np.array_equal(sub.centres().upper_c, pooled.given[1][[3, 1]])
 
 
 def test_a_network_fitted_on_pooled_inputs_reads_the_centres_pooled_over_every_velocity(tmp_path):
@@ -77,24 +77,10 @@ def test_inputs_must_name_what_the_network_reads(tmp_path, bad):
     assert str(path) in str(err.value) and "inputs" in str(err.value) and "pooled" in str(err.value)
 
 
-def test_with_input_drops_the_inputs_are_pooled_from_fixed_subsets_one_taken_per_triple_and_epoch():
-    # pre-training on a rig recorded 6 times a velocity for users who record 2 or 3: one drop set per count
-    data = _noisy(drops=6)
-    sets = drop_sets(data, [2, 3])
-    assert [s.drops["brick"][1].shape[1] for s in sets] == [2, 3]
-    assert all(any(np.array_equal(drop, d) for d in data.drops["brick"][1][0]) for drop in sets[1].drops["brick"][1][0])
-    triples, _ = triples_of(data, gaps=[1, 2], trim=0.0)
-    fits = [pooling(s) for s in sets]
-    pooled = pooled_triples(data, triples, fits)
-    assert pooled.given[0].shape == (2, len(triples), N)
-    v = data.banks["brick"].velocities
-    i = int(np.flatnonzero(v == triples.v[0])[0])
-    assert np.array_equal(pooled.given[0][1, 0], fits[1].centres_without("brick", i)[i - 1])
-    # each triple takes one alternative: both are taken, the target is the centre of every drop
-    drawn = pooled.centres(np.random.default_rng(1))
-    took = [[np.array_equal(drawn.lower_c[n], pooled.given[0][a, n]) for a in (0, 1)] for n in range(len(triples))]
-    assert all(any(t) for t in took) and {t.index(True) for t in took} == {0, 1}
-    assert np.array_equal(drawn.target, triples.centres().target)
-    fixed = pooled.centres()  # outside training: one alternative per triple, the same every time
-    assert np.array_equal(fixed.lower_c, pooled.centres().lower_c)
-    assert np.array_equal(pooled.subset([2]).centres().lower_c[0], fixed.lower_c[2])
+def test_pooled_inputs_refuse_input_drops_which_draws_raw_centres(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump({"interpolator": "convbilstm", "dataset": "x", "inputs": "pooled",
+                                    "training": {"input_drops": 10}}))
+    with pytest.raises(EffectError) as err:
+        load_config(path)
+    assert str(path) in str(err.value) and "training.input_drops" in str(err.value)
