@@ -147,6 +147,10 @@ def test_bench_learnable_takes_gaps_and_trims_says_when_it_cannot_validate_refus
     bad = _cli("bench", "learnable", str(cfg), "--trim", "0.5")
     assert bad.returncode == 2 and "trim" in bad.stderr and "with --trim" in bad.stderr
     assert "Traceback" not in bad.stderr
+    cfg.write_text(cfg.read_text() + "inputs: pooled\n")  # its noise budget is that of the raw centres
+    bad = _cli("bench", "learnable", str(cfg))
+    assert bad.returncode == 2 and "inputs: pooled" in bad.stderr and str(cfg) in bad.stderr
+    assert "Traceback" not in bad.stderr
 
 
 def test_bench_learnable_trim_moves_where_the_blend_starts_not_the_noise_budget(tmp_path):

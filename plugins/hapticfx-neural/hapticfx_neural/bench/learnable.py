@@ -89,6 +89,9 @@ def learnable(
     from ..run import config_triples
 
     cfg = load_config(config)
+    if cfg.inputs != "centres":
+        raise EffectError("bench learnable measures the noise of the neighbours' own drop centres; it does not "
+                          f"take inputs: {cfg.inputs}", source=cfg.source, key="inputs")
     if gaps is not None:
         try:
             wanted = [int(g) for g in gaps.split(",")]
