@@ -304,7 +304,7 @@ class Fit:
         self.trim = trim
         if trim is None:
             self.trim, self.trim_scores = ensemble.choose_trim(data, against="mean")
-        paths: dict = {}  # the alignments of this fit, shared by its choices (freed when it is done)
+        paths: dict = {}  # the alignments of this fit, shared by its choices and kept by a shrunk object's pool
         objects = _objects(data, self.trim)
         folds = penalty_folds(objects, paths)
         self.penalties, self.pooled_penalty, self.penalty_scores = _choose(folds, PENALTIES, float("inf"))

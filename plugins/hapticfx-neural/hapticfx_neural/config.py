@@ -14,8 +14,6 @@ import yaml
 
 from hapticfx.errors import EffectError
 
-from .samples import POOLED
-
 ARCHS = ("convbilstm", "lstm", "bilstm", "lstm-sae", "bilstm-ed", "convlstm-ed")
 
 # Paper Sect. 4.2 / 5.1. Table 3 gives sizes only for `lstm` (200) and `bilstm`
@@ -45,7 +43,9 @@ TRAINING_DEFAULTS = {
 }
 TOP_KEYS = ("interpolator", "dataset", "reducer", "objects", "train_velocities", "holdout_velocities",
             "gaps", "trim", "texture", "inputs", "init", "model", "training", "out")
-# What the network reads of each neighbour: its drop centre, or the centres ensemble-warp pools across velocity.
+# What the network reads of each neighbour: its drop centre, or the centres ensemble-warp pools across velocity
+# (:mod:`.pooled`).
+POOLED = "pooled"
 INPUTS = ("centres", POOLED)
 # How much of the recorded neighbours' fine detail a trained network's profiles keep (the core's
 # hapticfx.interpolators.texture): a share in [0, 1], or CHOOSE to pick it on the validation targets after training.

@@ -21,7 +21,8 @@ from hapticfx.interpolators.table import TableServed, VelocityTable, neighbours
 from hapticfx.signal import valid_number
 
 from . import checkpoint
-from .samples import POOLED, Centres, Triples, stack_triples
+from .config import POOLED
+from .samples import Centres, Triples, stack_triples
 
 
 def require_torch(why: str) -> None:
@@ -80,12 +81,15 @@ class NeuralInterpolator(TableServed):
         cfg.training.update(options.get("training") or {})
         cfg.model.update(options.get("model") or {})
         triples, targets = triples_of(data, gaps=cfg.gaps, trim=cfg.trim)
-        centres = None
         if cfg.inputs == POOLED:
             from .pooled import pooled_centres, pooled_triples, pooling
 
             fit = pooling(data)
             triples, centres = pooled_triples(data, triples, fit), pooled_centres(data, fit, cfg.trim)
+        else:
+            centres = Centres(cfg.trim)
+            for obj, bank in data.banks.items():
+                centres.add(bank, data.drops.get(obj))
         init = options.get("init", cfg.init_path())
         self.net, self.meta = train_network(
             self.arch, cfg.model, cfg.training, triples, progress=options.get("progress", False),
@@ -94,10 +98,7 @@ class NeuralInterpolator(TableServed):
                           "targets": targets, "gaps": list(cfg.gaps), "trim": cfg.trim, "inputs": cfg.inputs})
         self.net = self.net.double()  # served in float64, like its table
         self.table = None
-        self.centres = centres or Centres(cfg.trim)
-        if centres is None:
-            for obj, bank in data.banks.items():
-                self.centres.add(bank, data.drops.get(obj))
+        self.centres = centres
         return {**{k: self.meta["training"][k] for k in ("epochs_run", "best_epoch", "train_time_s")},
                 "texture": (self.meta.get("texture") or {}).get("share", 0.0)}
 

@@ -8,8 +8,8 @@ from hapticfx.data.dataset import open_dataset
 from hapticfx.errors import DatasetError
 from hapticfx.progress import say
 
-from .config import TrainConfig
-from .samples import POOLED, DropTriples, concat, drop_triples, object_pools
+from .config import POOLED, TrainConfig
+from .samples import DropTriples, concat, drop_triples, object_pools
 
 
 def triples_of(data, *, gaps: list[int], trim: float = 0.0, targets: dict[str, list[float]] | None = None,

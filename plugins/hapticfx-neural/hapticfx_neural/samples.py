@@ -48,7 +48,6 @@ from hapticfx.interfaces import Profile
 from hapticfx.interpolators.ensemble import centres as trimmed_centres
 from hapticfx.interpolators.residual import scale as neighbour_scale, weight
 
-POOLED = "pooled"  # config ``inputs``: the neighbours' centres pooled across velocity (:mod:`.pooled`)
 FIXED_INPUT_SEED = 31  # seeds the one fixed draw of each pool's inputs when input_drops is a range
 
 

@@ -12,7 +12,8 @@ from hapticfx.interfaces import Profile
 from hapticfx.interpolators.table import DEFAULT_TOLERANCE, VelocityTable, build_table
 
 from . import checkpoint
-from .samples import POOLED, Centres, stack_triples
+from .config import POOLED
+from .samples import Centres, stack_triples
 
 
 def network_table(net, meta: dict, banks: list, dataset: str, centres: Centres, *,

@@ -85,11 +85,11 @@ def learnable(
 
     from hapticfx.errors import EffectError
 
-    from ..config import MAX_GAP, config_from_mapping, load_config
+    from ..config import MAX_GAP, POOLED, config_from_mapping, load_config
     from ..run import config_triples
 
     cfg = load_config(config)
-    if cfg.inputs != "centres":
+    if cfg.inputs == POOLED:
         raise EffectError("bench learnable measures the noise of the neighbours' own drop centres; it does not "
                           f"take inputs: {cfg.inputs}", source=cfg.source, key="inputs")
     if gaps is not None:
