@@ -28,12 +28,13 @@ def register_actuators(register):
 
 @hookimpl
 def register_commands(app, bench):
-    from ..bench import ceiling, fuzz, interpolators, render, startup
+    from ..bench import ceiling, fuzz, interpolators, render, startup, texture
     from ..cli import commands
 
     commands.register(app)
     render.register(bench)
     interpolators.register(bench)
     ceiling.register(bench)
+    texture.register(bench)
     startup.register(bench)
     fuzz.register(bench)

@@ -1,0 +1,58 @@
+"""``hapticfx bench texture``: what the spectral criteria leave to a method whose centre is right."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from ..errors import EffectError
+from ..progress import say
+
+
+def texture(
+    datasets: List[str] = typer.Argument(..., metavar="DATASET...",
+                                         help="Datasets with their drops (e.g. builtin:helmet-drops, "
+                                              "heldout:heldout-even-height); each gets its own table."),
+    reducer: str = typer.Option("max-min", "--reducer", metavar="NAME", help="Which bank of each dataset."),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE", help="Also write the tables and every "
+                                       "fold as JSON."),
+):
+    """The ceiling of the texture trade: for every interior velocity, the mean of its other drops (a right centre)
+    with each texture share a method may keep, scored against the drop left out as `bench interpolators` scores
+    (gap shares to the drop mean's and the representative's floors; LSD, ST-SIM, SPQI against every drop, as
+    ratios to linear) and the criteria it meets. Where no share meets all four, no method of the residual form
+    does by a better centre alone. See docs/neural.md."""
+    from ..data.dataset import open_dataset
+    from ..evaluation.heldout import resolve
+    from ..evaluation.texture_ceiling import dataset_folds, summarise
+    from ..timing import table
+
+    report = {}
+    for name in datasets:
+        ds = open_dataset(resolve(name, progress=say))
+        if reducer not in ds.reducers():
+            raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
+        folds = dataset_folds(ds, reducer, progress=say)
+        rows = summarise(folds)
+        report[name] = {"dataset": ds.name, "rows": rows, "folds": [
+            {"object": f.object, "velocity": f.velocity, "linear": f.linear, "floors": f.floors,
+             "textured": {str(b): x for b, x in f.textured.items()}} for f in folds]}
+        typer.echo(f"\n{name} ({reducer}, {len(folds)} folds): a right centre with each texture share, against linear")
+        typer.echo(table(["texture", "gap share (drop mean)", "gap share (rep)", "LSD / linear", "ST-SIM / linear",
+                          "SPQI / linear", "criteria"],
+                         [[f"{r['texture']:.1f}", f"{r['share_mean']:.0%}", f"{r['share_rep']:.0%}",
+                           f"{r['lsd']:.3f}x", f"{r['stsim']:.3f}x", f"{r['spqi']:.3f}x", f"{r['criteria']}/4"]
+                          for r in rows]))
+    if out is not None:
+        from ..atomic import atomic_path
+
+        with atomic_path(out) as tmp:
+            Path(tmp).write_text(json.dumps({"reducer": reducer, "datasets": report}, indent=1) + "\n")
+        say(f"wrote {out}")
+
+
+def register(bench: typer.Typer) -> None:
+    bench.command("texture")(texture)

@@ -1,0 +1,122 @@
+"""What the spectral criteria leave to a method whose centre is right: the ceiling of the texture trade.
+
+``bench interpolators`` asks a method to come near the held-out velocity's drop mean (RMSE) and to be no worse
+than linear's blend of two recorded drops on measures against every drop (log-spectral distance, ST-SIM, SPQI). A
+mean of drops that ring out of phase is duller above about 100 Hz than any drop, so the two kinds of criterion pull
+apart; methods of the core's residual form trade one for the other with a texture share ``beta``
+(:mod:`hapticfx.interpolators.texture`). This measures the best that trade allows, from the drops themselves.
+
+For every interior velocity of every object (each left out as in ``lovo``, from its two recorded neighbours), the
+centre is the mean of that velocity's other drops, scored against the drop left out (so no drop is scored against
+a mean that holds it), with ``beta`` of the neighbours' blend's fine detail kept, as
+:func:`~hapticfx.interpolators.texture.keep` keeps it: ``centre + beta fine(blend - centre)``. The spectral
+measures are means over the drops, beside linear's blend of the two representatives against the same drops.
+
+On RMSE a right centre errs by the floors of ``bench interpolators``: the drop mean's sampling error against the
+mean, the other drops' mean against the representative. The texture adds ``beta rms(fine(blend - mean))`` to
+either in quadrature (its detail comes from the neighbours, independent of the target's drops); the gap shares
+follow as the bench computes them, from means over the folds. Point estimates, no intervals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DatasetError
+from ..interpolators.residual import weight
+from ..interpolators.texture import KEEP_SHARE, TEXTURES, fine, keep
+from ..processing.likeness import log_spectral_distance, mean_sampling_rmse, rmse
+from ..processing.perceptual import prepare, spqi, st_sim
+from .measures import leave_one_out_means
+
+SPECTRAL = ("lsd", "stsim", "spqi")
+
+
+@dataclass(frozen=True)
+class Fold:
+    """One left-out velocity: linear's and each texture share's spectral means over the drops, the RMSE floors, and
+    what the texture costs."""
+
+    object: str
+    velocity: float
+    linear: dict     # lsd, stsim, spqi, rmse_mean, rmse_rep
+    floors: dict     # rmse_mean, rmse_rep
+    textured: dict   # beta -> {lsd, stsim, spqi, cost}
+
+
+def _spectral(preds: np.ndarray, drops: np.ndarray, refs: list, rate_hz: float) -> dict:
+    """Mean LSD, ST-SIM and SPQI of ``preds[j]`` against ``drops[j]`` (one prediction broadcast to every drop)."""
+    preds = np.broadcast_to(preds, drops.shape)
+    got = [prepare(p, rate_hz=rate_hz) for p in preds]
+    return {"lsd": float(np.mean(log_spectral_distance(preds, drops, rate_hz=rate_hz))),
+            "stsim": float(np.mean([st_sim(g, r) for g, r in zip(got, refs)])),
+            "spqi": float(np.mean([spqi(g, r) for g, r in zip(got, refs)]))}
+
+
+def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: int, *, rate_hz: float,
+         betas=TEXTURES) -> Fold:
+    """The fold at ``velocity``: ``blend`` of its neighbours' representatives, its ``drops`` ``(D, N)`` (D >= 2) and
+    the index of its representative among them."""
+    d = np.asarray(drops, dtype=np.float64)
+    blend = np.asarray(blend, dtype=np.float64)
+    refs = [prepare(x, rate_hz=rate_hz) for x in d]
+    mean, centres = d.mean(axis=0), leave_one_out_means(d)
+    others = np.delete(d, rep, axis=0).mean(axis=0)
+    linear = {**_spectral(blend, d, refs, rate_hz), "rmse_mean": float(rmse(blend, mean)),
+              "rmse_rep": float(rmse(blend, d[rep]))}
+    detail = float(np.sqrt(np.mean(fine(blend - mean, rate_hz) ** 2)))
+    textured = {b: {**_spectral(blend + keep(centres - blend, b, rate_hz), d, refs, rate_hz), "cost": b * detail}
+                for b in betas}
+    return Fold(obj, float(velocity), linear, {"rmse_mean": mean_sampling_rmse(d),
+                                               "rmse_rep": float(rmse(others, d[rep]))}, textured)
+
+
+def dataset_folds(dataset, reducer: str, *, progress=None) -> list[Fold]:
+    """Every fold of ``dataset``: each object's interior velocities, with the bank's representatives as the
+    neighbours and the dataset's own choice of representative among the target's drops."""
+    from ..data.training import recorded_drops
+
+    folds = []
+    for obj in dataset.objects:
+        found = recorded_drops(dataset, obj, reducer)
+        if found is None:
+            raise DatasetError(f"dataset {dataset.name!r} keeps no drops of {obj!r} (no raw/ recordings)")
+        velocities, drops = found
+        if drops.shape[1] < 2:
+            raise DatasetError(f"dataset {dataset.name!r}, object {obj!r}: 1 drop per velocity; the texture's "
+                               "ceiling needs at least 2 (each is scored against the mean of the others)")
+        bank, chosen = dataset.bank(obj, reducer), dataset.representatives(obj)["chosen"]
+        for j in range(1, len(velocities) - 1):
+            v = float(velocities[j])
+            w = float(weight(velocities[j - 1], velocities[j + 1], v))
+            lo, hi = (bank.profiles[bank.index_of(float(velocities[k]))] for k in (j - 1, j + 1))
+            folds.append(fold(obj, v, (1.0 - w) * lo + w * hi, drops[j], int(chosen[j]), rate_hz=dataset.rate_hz))
+        if progress is not None:
+            progress(f"{dataset.name}: {obj}: {len(velocities) - 2} velocities scored")
+    if not folds:
+        raise DatasetError(f"dataset {dataset.name!r}: no object has a velocity with recorded neighbours on both sides")
+    return folds
+
+
+def summarise(folds: list[Fold], betas=TEXTURES) -> list[dict]:
+    """Per texture share: the gap shares of a right centre with that texture, its spectral measures as ratios to
+    linear's (means over the folds), and how many of the bench's four criteria it meets."""
+    lin = {k: np.mean([f.linear[k] for f in folds]) for k in (*SPECTRAL, "rmse_mean", "rmse_rep")}
+    floor = {k: np.array([f.floors[k] for f in folds]) for k in ("rmse_mean", "rmse_rep")}
+    rows = []
+    for b in betas:
+        cost = np.array([f.textured[b]["cost"] for f in folds])
+        gap = {k: lin[k] - floor[k].mean() for k in floor}  # none: NaN, as the bench reports it
+        share = {k: float((lin[k] - np.mean(np.hypot(floor[k], cost))) / gap[k]) if gap[k] > 0 else float("nan")
+                 for k in floor}
+        ratio = {k: float(np.mean([f.textured[b][k] for f in folds]) / lin[k]) for k in SPECTRAL}
+        met = (int(share["rmse_mean"] >= KEEP_SHARE) + int(share["rmse_rep"] >= KEEP_SHARE) + int(ratio["lsd"] <= 1.0)
+               + int(ratio["stsim"] >= 1.0 and ratio["spqi"] >= 1.0))
+        rows.append({"texture": b, "share_mean": share["rmse_mean"], "share_rep": share["rmse_rep"], **ratio,
+                     "criteria": met})
+    return rows
+
+
+__all__ = ["Fold", "dataset_folds", "fold", "summarise"]
