@@ -47,9 +47,10 @@ class Fold:
 
 
 def _spectral(preds: np.ndarray, drops: np.ndarray, refs: list, rate_hz: float) -> dict:
-    """Mean LSD, ST-SIM and SPQI of ``preds[j]`` against ``drops[j]`` (one prediction broadcast to every drop)."""
+    """Mean LSD, ST-SIM and SPQI of ``preds[j]`` against ``drops[j]`` (one prediction ``(N,)``: against every drop)."""
+    one = preds.ndim == 1
+    got = [prepare(preds, rate_hz=rate_hz)] * len(refs) if one else [prepare(p, rate_hz=rate_hz) for p in preds]
     preds = np.broadcast_to(preds, drops.shape)
-    got = [prepare(p, rate_hz=rate_hz) for p in preds]
     return {"lsd": float(np.mean(log_spectral_distance(preds, drops, rate_hz=rate_hz))),
             "stsim": float(np.mean([st_sim(g, r) for g, r in zip(got, refs)])),
             "spqi": float(np.mean([spqi(g, r) for g, r in zip(got, refs)]))}
