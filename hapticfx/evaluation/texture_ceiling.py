@@ -63,15 +63,14 @@ def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: i
     d = np.asarray(drops, dtype=np.float64)
     blend = np.asarray(blend, dtype=np.float64)
     refs = [prepare(x, rate_hz=rate_hz) for x in d]
-    mean, centres = d.mean(axis=0), leave_one_out_means(d)
-    others = np.delete(d, rep, axis=0).mean(axis=0)
+    mean, centres = d.mean(axis=0), leave_one_out_means(d)  # centres[rep]: the other drops' mean
     linear = {**_spectral(blend, d, refs, rate_hz), "rmse_mean": float(rmse(blend, mean)),
               "rmse_rep": float(rmse(blend, d[rep]))}
     detail = float(np.sqrt(np.mean(fine(blend - mean, rate_hz) ** 2)))
     textured = {b: {**_spectral(blend + keep(centres - blend, b, rate_hz), d, refs, rate_hz), "cost": b * detail}
                 for b in betas}
     return Fold(obj, float(velocity), linear, {"rmse_mean": mean_sampling_rmse(d),
-                                               "rmse_rep": float(rmse(others, d[rep]))}, textured)
+                                               "rmse_rep": float(rmse(centres[rep], d[rep]))}, textured)
 
 
 def dataset_folds(dataset, reducer: str, *, progress=None) -> list[Fold]:
@@ -106,10 +105,10 @@ def summarise(folds: list[Fold], betas=TEXTURES) -> list[dict]:
     linear's (means over the folds), and how many of the bench's four criteria it meets."""
     lin = {k: np.mean([f.linear[k] for f in folds]) for k in (*SPECTRAL, "rmse_mean", "rmse_rep")}
     floor = {k: np.array([f.floors[k] for f in folds]) for k in ("rmse_mean", "rmse_rep")}
+    gap = {k: lin[k] - floor[k].mean() for k in floor}  # none: NaN, as the bench reports it
     rows = []
     for b in betas:
         cost = np.array([f.textured[b]["cost"] for f in folds])
-        gap = {k: lin[k] - floor[k].mean() for k in floor}  # none: NaN, as the bench reports it
         share = {k: float((lin[k] - np.mean(np.hypot(floor[k], cost))) / gap[k]) if gap[k] > 0 else float("nan")
                  for k in floor}
         ratio = {k: float(np.mean([f.textured[b][k] for f in folds]) / lin[k]) for k in SPECTRAL}
