@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import DatasetError, EffectError
+from ..errors import DatasetError
 from ..progress import say
 
 
@@ -36,17 +36,14 @@ def ceiling(
     floors squared, and the gap shares they imply. See docs/neural.md."""
     import numpy as np
 
-    from ..data.dataset import open_dataset
     from ..data.training import recorded_drops
     from ..evaluation.ceiling import method_values, object_folds, split, summarise
-    from ..evaluation.heldout import resolve
+    from ..evaluation.heldout import open_with_bank
     from ..evaluation.runner import methods_from
     from ..timing import table
 
     row = None if method == "none" else methods_from([method], config)[-1]
-    ds = open_dataset(resolve(dataset, progress=say))
-    if reducer not in ds.reducers():
-        raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
+    ds = open_with_bank(dataset, reducer, progress=say)
     splits = {}
     for obj in ds.objects:
         found = recorded_drops(ds, obj, reducer)

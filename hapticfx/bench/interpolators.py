@@ -98,14 +98,11 @@ def interpolators(
 def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int, max_rounds: int | None,
          out: Path, resume: bool = False, jobs: int = 1):
     """One dataset and fold protocol: run, summarise, write tables.md, results.json and the PNGs into ``out``."""
-    from ..data.dataset import open_dataset
-    from ..evaluation.heldout import resolve
+    from ..evaluation.heldout import open_with_bank
     from ..evaluation.report import figures, markdown, summarise
     from ..evaluation.runner import run_evaluation
 
-    ds = open_dataset(resolve(ref, progress=say))
-    if reducer not in ds.reducers():
-        raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
+    ds = open_with_bank(ref, reducer, progress=say)
     say(f"dataset {ds.name} ({reducer}), protocol {protocol}, methods {', '.join(r.row for r in rows)}")
     file = out / "results.json"
     previous = _earlier(file) if resume else None

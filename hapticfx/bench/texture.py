@@ -8,7 +8,6 @@ from typing import List, Optional
 
 import typer
 
-from ..errors import EffectError
 from ..progress import say
 
 
@@ -25,16 +24,13 @@ def texture(
     (gap shares to the drop mean's and the representative's floors; LSD, ST-SIM, SPQI against every drop, as
     ratios to linear) and the criteria it meets. Where no share meets all four, no method of the residual form
     does by a better centre alone. See docs/neural.md."""
-    from ..data.dataset import open_dataset
-    from ..evaluation.heldout import resolve
+    from ..evaluation.heldout import open_with_bank
     from ..evaluation.texture_ceiling import dataset_folds, summarise
     from ..timing import table
 
     report = {}
     for name in datasets:
-        ds = open_dataset(resolve(name, progress=say))
-        if reducer not in ds.reducers():
-            raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
+        ds = open_with_bank(name, reducer, progress=say)
         folds = dataset_folds(ds, reducer, progress=say)
         rows = summarise(folds)
         report[name] = {"dataset": ds.name, "rows": rows, "folds": [

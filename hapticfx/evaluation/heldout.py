@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 from typing import Callable
 
-from ..errors import DatasetError, preview
+from ..errors import DatasetError, EffectError, preview
 
 PREFIX = "heldout:"
 SPEC_DIR = Path(__file__).resolve().parent.parent / "datasets" / "heldout"
@@ -68,3 +68,14 @@ def resolve(ref: str, *, progress: Callable[[str], None] | None = None) -> str:
     if not ref.startswith(PREFIX):
         return ref
     return str(ensure(ref[len(PREFIX):], progress=progress))
+
+
+def open_with_bank(ref: str, reducer: str, *, progress: Callable[[str], None] | None = None):
+    """The dataset ``ref`` names (a held-out one made on first use), refused in one line where it has no
+    ``reducer`` bank."""
+    from ..data.dataset import open_dataset
+
+    ds = open_dataset(resolve(ref, progress=progress))
+    if reducer not in ds.reducers():
+        raise EffectError(f"dataset {ds.name!r} has no {reducer!r} bank; it has: {', '.join(ds.reducers())}")
+    return ds
