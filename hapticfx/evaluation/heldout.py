@@ -26,6 +26,10 @@ HELDOUT: dict[str, dict] = {
     "heldout-irregular": {"draw_seed": 2_600_001, "sim_seed": 2_610_001, "spacing": "irregular", "drops": 10},
     "heldout-3drops": {"draw_seed": 2_600_002, "sim_seed": 2_610_002, "drops": 3},
     "heldout-even-height": {"draw_seed": 2_600_003, "sim_seed": 2_610_003, "spacing": "even-height"},
+    # a second three, fixed before a texture redesign chosen on the design rigs is run on them (issue 26)
+    "heldout-irregular-b": {"draw_seed": 2_600_004, "sim_seed": 2_610_004, "spacing": "irregular", "drops": 10},
+    "heldout-3drops-b": {"draw_seed": 2_600_005, "sim_seed": 2_610_005, "drops": 3},
+    "heldout-even-height-b": {"draw_seed": 2_600_006, "sim_seed": 2_610_006, "spacing": "even-height"},
 }
 
 
