@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import yaml
 
-from hapticfx.evaluation.measures import floors
-from hapticfx.evaluation.texture_ceiling import Fold, fold, summarise
+from hapticfx.evaluation.measures import drop_pairs, floors
+from hapticfx.evaluation.texture_ceiling import Fold, fold, recorded, summarise
 from hapticfx.interpolators.texture import TEXTURES
 from hapticfx.processing.likeness import log_spectral_distance
 from hapticfx.processing.perceptual import scores
@@ -46,6 +46,21 @@ def test_without_texture_the_centre_scores_as_the_other_drops_mean_and_linear_as
     assert f.floors["rmse_rep"] == pytest.approx(np.sqrt(np.mean((np.delete(drops, 2, 0).mean(0) - drops[2]) ** 2)))
 
 
+def test_a_recorded_drop_scores_as_the_bench_scores_the_drops_against_each_other():
+    drops, blend = _out_of_phase()
+    f = fold("ring", 3.0, blend, drops, 1, rate_hz=RATE)
+    pairs = drop_pairs(drops, rate_hz=RATE)
+    assert f.recorded == pytest.approx({"lsd": floors(drops, 1, rate_hz=RATE)["drop_pairs_lsd_db"],
+                                        "stsim": pairs["drop_to_drop_stsim"], "spqi": pairs["drop_to_drop_spqi"]})
+    # rings out of phase: one recorded drop is far from the others in time, so its ST-SIM is below linear's blend
+    # of two of them; the ratios are its means over the folds to linear's
+    real = recorded([f, f])
+    assert real["stsim"] == pytest.approx(f.recorded["stsim"] / f.linear["stsim"]) and real["stsim"] < 1.0
+    assert real["perceptual_met"] is False
+    (real,) = [recorded([_fold(1.0, 0.5, 0.0, lsd=0.98, stsim=1.0, spqi=1.01)])]
+    assert real == pytest.approx({"lsd": 0.98, "stsim": 1.0, "spqi": 1.01, "lsd_met": True, "perceptual_met": True})
+
+
 def test_texture_restores_what_the_mean_of_out_of_phase_rings_loses_and_costs_rmse():
     drops, blend = _out_of_phase()
     f = fold("ring", 3.0, blend, drops, 0, rate_hz=RATE)
@@ -63,7 +78,8 @@ def test_texture_restores_what_the_mean_of_out_of_phase_rings_loses_and_costs_rm
 def _fold(lin_mean, floor_mean, cost, lsd=1.0, stsim=1.0, spqi=1.0):
     linear = {"lsd": 1.0, "stsim": 1.0, "spqi": 1.0, "rmse_mean": lin_mean, "rmse_rep": lin_mean}
     return Fold("o", 1.0, linear, {"rmse_mean": floor_mean, "rmse_rep": floor_mean},
-                {0.0: {"lsd": lsd, "stsim": stsim, "spqi": spqi, "cost": cost}})
+                {0.0: {"lsd": lsd, "stsim": stsim, "spqi": spqi, "cost": cost}},
+                {"lsd": lsd, "stsim": stsim, "spqi": spqi})
 
 
 def test_shares_and_criteria_follow_the_bench_bar():

@@ -23,25 +23,28 @@ def texture(
     with each texture share a method may keep, scored against the drop left out as `bench interpolators` scores
     (gap shares to the drop mean's and the representative's floors; LSD, ST-SIM, SPQI against every drop, as
     ratios to linear) and the criteria it meets. Where no share meets all four, no method of the residual form
-    does by a better centre alone. See docs/neural.md."""
+    does by a better centre alone. The last row is a recorded drop of the velocity, each scored against the
+    others on the spectral measures: where it is worse than linear, so are the recordings. See docs/neural.md."""
     from ..evaluation.heldout import open_with_bank
-    from ..evaluation.texture_ceiling import dataset_folds, summarise
+    from ..evaluation.texture_ceiling import dataset_folds, recorded, summarise
     from ..timing import table
 
     report = {}
     for name in datasets:
         ds = open_with_bank(name, reducer, progress=say)
         folds = dataset_folds(ds, reducer, progress=say)
-        rows = summarise(folds)
-        report[name] = {"dataset": ds.name, "rows": rows, "folds": [
+        rows, real = summarise(folds), recorded(folds)
+        report[name] = {"dataset": ds.name, "rows": rows, "recorded": real, "folds": [
             {"object": f.object, "velocity": f.velocity, "linear": f.linear, "floors": f.floors,
-             "textured": {str(b): x for b, x in f.textured.items()}} for f in folds]}
+             "textured": {str(b): x for b, x in f.textured.items()}, "recorded": f.recorded} for f in folds]}
         typer.echo(f"\n{name} ({reducer}, {len(folds)} folds): a right centre with each texture share, against linear")
         typer.echo(table(["texture", "gap share (drop mean)", "gap share (rep)", "LSD / linear", "ST-SIM / linear",
                           "SPQI / linear", "criteria"],
                          [[f"{r['texture']:.1f}", f"{r['share_mean']:.0%}", f"{r['share_rep']:.0%}",
                            f"{r['lsd']:.3f}x", f"{r['stsim']:.3f}x", f"{r['spqi']:.3f}x", f"{r['criteria']}/4"]
-                          for r in rows]))
+                          for r in rows]
+                         + [["a recorded drop", "-", "-", f"{real['lsd']:.3f}x", f"{real['stsim']:.3f}x",
+                             f"{real['spqi']:.3f}x", f"{int(real['lsd_met']) + int(real['perceptual_met'])}/2 spectral"]]))
     if out is not None:
         from ..atomic import atomic_path
 
