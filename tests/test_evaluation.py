@@ -253,6 +253,14 @@ def test_protocol_criteria_and_table(uneven):
     assert set(got) == {"lsd_drops_db", "stsim", "spqi"}
     assert both.count(f"| {got['lsd_drops_db']:.3f} | {got['stsim']:.3f} | {got['spqi']:.3f} |") == 2
     assert "The drop mean itself against each drop / linear: LSD" in md
+    # and what a recorded drop scores against the others, beside it
+    from hapticfx.evaluation.protocol import RECORDED
+
+    real = ideal(summary, RECORDED)
+    assert real["spqi"] == summary["floors"]["drop_to_drop_spqi"] / lin["spqi"] and set(real) == set(got)
+    assert f"A recorded drop against the others / linear: LSD vs drops {real['lsd_drops_db']:.3f}" in md
+    row = f"| {got['spqi']:.3f} | {real['lsd_drops_db']:.3f} | {real['stsim']:.3f} | {real['spqi']:.3f} |"
+    assert both.count(row) == 2
 
 
 def test_generalisation_takes_no_dataset(tmp_path):
