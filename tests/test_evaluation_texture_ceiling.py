@@ -57,7 +57,7 @@ def test_a_recorded_drop_scores_as_the_bench_scores_the_drops_against_each_other
     real = recorded([f, f])
     assert real["stsim"] == pytest.approx(f.recorded["stsim"] / f.linear["stsim"]) and real["stsim"] < 1.0
     assert real["perceptual_met"] is False
-    (real,) = [recorded([_fold(1.0, 0.5, 0.0, lsd=0.98, stsim=1.0, spqi=1.01)])]
+    real = recorded([_fold(1.0, 0.5, 0.0, lsd=0.98, stsim=1.0, spqi=1.01)])
     assert real == pytest.approx({"lsd": 0.98, "stsim": 1.0, "spqi": 1.01, "lsd_met": True, "perceptual_met": True})
 
 

@@ -137,7 +137,9 @@ def combined(runs: list[tuple[dict, dict]]) -> str:
               "| dataset | " + " | ".join(f"{who}: {label} / linear" for who in ("drop mean", "a recorded drop")
                                           for _, _, label in IDEAL) + " |", "|---|---|---|---|---|---|---|"]
     for results, summary in runs:
-        cells = [f"{got[m]:.3f}" if m in got else "-" for reference in (IDEAL, RECORDED)
-                 for got in [ideal(summary, reference)] for _, m, _ in reference]
+        cells = []
+        for reference in (IDEAL, RECORDED):
+            got = ideal(summary, reference)
+            cells += [f"{got[m]:.3f}" if m in got else "-" for _, m, _ in reference]
         lines.append(f"| `{results['dataset']}` {results['protocol']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
