@@ -1,8 +1,10 @@
-"""The core alone (no plugin loaded: ``HAPTICFX_PLUGINS=""``) renders, exports and validates the shipped effects.
+"""The core alone (no plugin loaded: ``HAPTICFX_PLUGINS=""``) renders, exports and validates the shipped effects
+whose model and interpolator are the core's.
 
 The sound-card actuators' specs live in the core (hapticfx.actuators.known); only playing on a sound card needs
 hapticfx-soundcard, and ``play`` then says what to install and writes the impact to files, as on a machine with
-no sound device.
+no sound device. The default falling effects use the ConvBiLSTM, whose table ships with hapticfx-neural
+(``scripts/install.sh`` installs it, without torch); without that plugin they say so in one line.
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-BRICK = ROOT / "effects" / "falling_brick.yaml"
+BRICK = ROOT / "effects" / "falling_brick_ensemble_warp.yaml"
+DEFAULT_BRICK = ROOT / "effects" / "falling_brick.yaml"
 
 
 def hapticfx(*args, cwd, plugins=""):
@@ -44,6 +47,16 @@ def test_the_core_alone_exports_validates_and_plays_a_haptic_file_to_files(tmp_p
     assert "vibro-transducer plays through hapticfx-soundcard, which is not installed" in r.stdout
     assert len(r.stdout.splitlines()) == 1 and "Traceback" not in r.stderr
     assert sorted(p.suffix for p in tmp_path.glob("hapticfx-*")) == [".png", ".wav"]
+
+
+def test_the_default_effect_without_the_neural_plugin_is_one_line_and_writes_nothing(tmp_path):
+    r = hapticfx("render", DEFAULT_BRICK, "--out", "x.wav", cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.strip().splitlines() == [
+        f"hapticfx: error: {DEFAULT_BRICK}: model.interpolator: unknown interpolator 'convbilstm'; it comes with "
+        f"hapticfx-neural: pip install {ROOT / 'plugins' / 'hapticfx-neural'}; installed: ensemble, ensemble-warp, "
+        "linear"]
+    assert not list(tmp_path.iterdir())
 
 
 def test_a_sound_card_option_without_the_plugin_is_one_line(tmp_path):

@@ -26,7 +26,7 @@ atexit.register(lambda: print("HAPTICFX-PROBE " + json.dumps([m for m in heavy i
 sys.argv = ["hapticfx", *sys.argv[1:]]
 runpy.run_module("hapticfx", run_name="__main__", alter_sys=True)
 """.format(heavy=HEAVY)
-DEFAULT_EFFECTS = ("effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml",
+DEFAULT_EFFECTS = ("effects/falling_brick.yaml", "effects/falling_brick_ensemble_warp.yaml",
                    "effects/falling_brick_linear.yaml", "effects/falling_brick_kinetic.yaml")
 
 
@@ -47,7 +47,7 @@ def _run(args: list[str]) -> tuple[float, list[str]]:
 
 def startup(
     effects: Optional[list[Path]] = typer.Argument(None, help="Effect files to play (default: the falling brick's "
-                                                  "ensemble, ConvBiLSTM, linear and kinetic-energy effects)."),
+                                                  "ConvBiLSTM, ensemble-warp, linear and kinetic-energy effects)."),
     baseline: Path = typer.Option(Path("effects/falling_brick_linear.yaml"), "--baseline", metavar="EFFECT",
                                   help="The effect every ratio is taken against (measured in the same run)."),
     repeats: int = typer.Option(9, "--repeats", metavar="COUNT", min=3,

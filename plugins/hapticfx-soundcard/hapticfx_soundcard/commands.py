@@ -52,7 +52,7 @@ def _row(label: str, values_s, floor=None) -> str:
 
 
 DEFAULT_EFFECTS = ("effects/falling_brick_kinetic.yaml", "effects/falling_brick_linear.yaml",
-                   "effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml")
+                   "effects/falling_brick.yaml", "effects/falling_brick_ensemble_warp.yaml")
 STALL_S = 0.005  # a machine stall this long can empty a 'low' buffer that is already half played
 # The first callback after a stall reports its underflow: 0.7-17.7 ms after it ended in docs/benchmarks.md.
 STALL_WINDOW_S = 0.02
@@ -191,7 +191,7 @@ def _underflow_report(rounds, sends: int, buffer_s: float) -> None:
 
 def bench_output(
     effects: Optional[list[Path]] = typer.Argument(None, help="Effects whose models are timed (default: the falling "
-                                                             "brick with kinetic, linear, ensemble and ConvBiLSTM table)."),
+                                                             "brick with kinetic, linear, ConvBiLSTM table and ensemble-warp)."),
     impacts: int = typer.Option(250, "--impacts", "-n", metavar="COUNT", min=1,
                                 help="Impacts timed per path and latency setting."),
     latencies: list[str] = typer.Option(["low"], "--latency", metavar="low|high|SECONDS",
