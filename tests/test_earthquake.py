@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -113,8 +114,6 @@ def test_demo_bad_record_is_one_line_error(tmp_path):
 
 def test_without_the_neural_plugin_the_demo_plays_the_ensemble_warp_room_and_says_why(tmp_path):
     """The default room's effects need hapticfx-neural's ConvBiLSTM table; the core alone falls back a scene."""
-    import os
-
     proc = subprocess.run([sys.executable, str(DEMO / "earthquake.py"), "--out", str(tmp_path), "--synthetic",
                            "--duration", "1", "--quiet"], capture_output=True, text=True, timeout=300, cwd=ROOT,
                           env={**os.environ, "HAPTICFX_PLUGINS": ""})
