@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from hapticfx.evaluation.measures import drop_pairs, floors
-from hapticfx.evaluation.texture_ceiling import Fold, fold, recorded, summarise
+from hapticfx.evaluation.texture_ceiling import Fold, fill, fold, recorded, summarise
 from hapticfx.interpolators.texture import TEXTURES
 from hapticfx.processing.likeness import log_spectral_distance
 from hapticfx.processing.perceptual import scores
@@ -75,6 +75,35 @@ def test_texture_restores_what_the_mean_of_out_of_phase_rings_loses_and_costs_rm
     assert all(np.isfinite(v) for r in rows for v in r.values())
 
 
+def test_fill_raises_only_the_quiet_bins_above_100_hz_and_keeps_their_phase():
+    rng = np.random.default_rng(3)
+    x, ref = rng.standard_normal((2, 500)), rng.standard_normal(500)
+    f = np.fft.rfftfreq(500, 1.0 / RATE)
+    X, Y, R = np.fft.rfft(x), np.fft.rfft(fill(x, ref, 0.5, RATE)), np.fft.rfft(ref)
+    above = f > 100.0
+    np.testing.assert_allclose(np.abs(Y[:, above]), np.maximum(np.abs(X[:, above]), 0.5 * np.abs(R[above])), rtol=1e-9)
+    np.testing.assert_allclose(Y[:, ~above], X[:, ~above], rtol=1e-9, atol=1e-9)
+    raised = above & (np.abs(X) < 0.5 * np.abs(R))
+    assert raised.sum() > 10  # the case is not empty
+    np.testing.assert_allclose(np.angle(Y[raised]), np.angle(X[raised]), atol=1e-9)
+    np.testing.assert_allclose(fill(x, ref, 0.0, RATE), x, atol=1e-12)
+    # a silent profile takes the reference's phase: above 100 Hz it becomes g times the reference there
+    np.testing.assert_allclose(np.fft.rfft(fill(np.zeros(500), ref, 0.5, RATE))[above], 0.5 * R[above], atol=1e-9)
+
+
+def test_a_fill_on_the_centre_restores_lsd_at_an_rmse_cost_each_share_and_fill_a_row():
+    drops, blend = _out_of_phase()
+    f = fold("ring", 3.0, blend, drops, 0, rate_hz=RATE, fills=(0.5, 1.0))
+    assert set(f.filled) == {(b, g) for b in TEXTURES for g in (0.5, 1.0)}
+    assert f.filled[(0.0, 1.0)]["lsd"] < f.filled[(0.0, 0.5)]["lsd"] < f.textured[0.0]["lsd"]
+    assert 0.0 < f.filled[(0.0, 0.5)]["cost"] < f.filled[(0.0, 1.0)]["cost"]
+    rows = summarise([f], fills=(0.5, 1.0))
+    assert [(r["texture"], r["fill"]) for r in rows] == ([(b, 0.0) for b in TEXTURES]
+                                                          + [(b, g) for g in (0.5, 1.0) for b in TEXTURES])
+    assert rows[:len(TEXTURES)] == [{**r, "fill": 0.0} for r in summarise([f])]
+    assert all(np.isfinite(v) for r in rows for v in r.values())
+
+
 def _fold(lin_mean, floor_mean, cost, lsd=1.0, stsim=1.0, spqi=1.0):
     linear = {"lsd": 1.0, "stsim": 1.0, "spqi": 1.0, "rmse_mean": lin_mean, "rmse_rep": lin_mean}
     return Fold("o", 1.0, linear, {"rmse_mean": floor_mean, "rmse_rep": floor_mean},
@@ -118,6 +147,11 @@ def test_the_command_prints_a_table_per_dataset_and_refuses_what_it_cannot_score
     (entry,) = out["datasets"].values()
     assert len(entry["folds"]) == 2 and [r["texture"] for r in entry["rows"]] == list(TEXTURES)
     assert all(np.isfinite(v) for r in entry["rows"] for v in r.values())
+    r = _cli("bench", "texture", str(tmp_path / "three"), "--fill", "0.5")
+    assert r.returncode == 0, r.stderr
+    assert len(re.findall(r"\| [0-4]/4 +\|", r.stdout)) == 2 * len(TEXTURES) and "0.4 + fill 0.5" in r.stdout
+    r = _cli("bench", "texture", str(tmp_path / "three"), "--fill", "2")
+    assert r.returncode == 2 and "--fill" in r.stderr and "Traceback" not in r.stderr
     r = _cli("bench", "texture", str(tmp_path / "three"), str(tmp_path / "one"), "-o", str(tmp_path / "u.json"))
     assert r.returncode == 2 and "1 drop per velocity" in r.stderr and "Traceback" not in r.stderr
     assert not (tmp_path / "u.json").exists()

@@ -16,6 +16,10 @@ def texture(
                                          help="Datasets with their drops (e.g. builtin:helmet-drops, "
                                               "heldout:heldout-even-height); each gets its own table."),
     reducer: str = typer.Option("max-min", "--reducer", metavar="NAME", help="Which bank of each dataset."),
+    fills: List[float] = typer.Option([], "--fill", metavar="G", min=0.0, max=1.0,
+                                      help="Also score each share with a spectral fill on top: every bin above "
+                                           "100 Hz raised to G times linear's magnitude where lower, in phase "
+                                           "(repeat for several; a lead, not a method: docs/neural.md)."),
     out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE", help="Also write the tables and every "
                                        "fold as JSON."),
 ):
@@ -32,15 +36,17 @@ def texture(
     report = {}
     for name in datasets:
         ds = open_with_bank(name, reducer, progress=say)
-        folds = dataset_folds(ds, reducer, progress=say)
-        rows, real = summarise(folds), recorded(folds)
+        folds = dataset_folds(ds, reducer, fills=fills, progress=say)
+        rows, real = summarise(folds, fills=fills), recorded(folds)
         report[name] = {"dataset": ds.name, "rows": rows, "recorded": real, "folds": [
             {"object": f.object, "velocity": f.velocity, "linear": f.linear, "floors": f.floors,
-             "textured": {str(b): x for b, x in f.textured.items()}, "recorded": f.recorded} for f in folds]}
+             "textured": {str(b): x for b, x in f.textured.items()},
+             "filled": {f"{b} fill {g}": x for (b, g), x in f.filled.items()}, "recorded": f.recorded} for f in folds]}
         typer.echo(f"\n{name} ({reducer}, {len(folds)} folds): a right centre with each texture share, against linear")
         typer.echo(table(["texture", "gap share (drop mean)", "gap share (rep)", "LSD / linear", "ST-SIM / linear",
                           "SPQI / linear", "criteria"],
-                         [[f"{r['texture']:.1f}", f"{r['share_mean']:.0%}", f"{r['share_rep']:.0%}",
+                         [[f"{r['texture']:.1f}" + (f" + fill {r['fill']:g}" if r["fill"] else ""),
+                           f"{r['share_mean']:.0%}", f"{r['share_rep']:.0%}",
                            f"{r['lsd']:.3f}x", f"{r['stsim']:.3f}x", f"{r['spqi']:.3f}x", f"{r['criteria']}/4"]
                           for r in rows]
                          + [["a recorded drop", "-", "-", f"{real['lsd']:.3f}x", f"{real['stsim']:.3f}x",

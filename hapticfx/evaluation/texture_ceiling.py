@@ -17,6 +17,12 @@ mean, the other drops' mean against the representative. The texture adds ``beta 
 either in quadrature (its detail comes from the neighbours, independent of the target's drops); the gap shares
 follow as the bench computes them, from means over the folds. Point estimates, no intervals.
 
+With ``fills``, each share is also scored with a spectral fill on top (:func:`fill`): the textured centre's phase
+kept, every bin above :data:`~hapticfx.interpolators.texture.TEXTURE_HZ` whose magnitude is below ``g`` times the
+blend's raised to it. Added in phase with the centre, it buys more log-spectral distance per unit of RMSE than the
+neighbours' detail, whose phase is unrelated to the centre's; its cost is the RMS of what it and the texture add to
+each left-out centre. It measures a lead, not a method: no interpolator fills yet.
+
 Beside them, what a recorded drop of the velocity scores on the same spectral measures, each drop taken as the
 prediction of every other (:func:`~hapticfx.evaluation.measures.floors` and
 :func:`~hapticfx.evaluation.measures.drop_pairs`, as ``bench interpolators`` reports them): where a real recording
@@ -25,13 +31,13 @@ is worse than linear, "no worse than linear" asks more of a method than the reco
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import DatasetError
 from ..interpolators.residual import weight
-from ..interpolators.texture import KEEP_SHARE, TEXTURES, fine, keep
+from ..interpolators.texture import KEEP_SHARE, TEXTURE_HZ, TEXTURES, fine, keep
 from ..processing.likeness import log_spectral_distance, mean_sampling_rmse, rmse
 from ..processing.perceptual import prepare, spqi, st_sim
 from .measures import drop_pairs, floors, leave_one_out_means
@@ -50,6 +56,7 @@ class Fold:
     floors: dict     # rmse_mean, rmse_rep
     textured: dict   # beta -> {lsd, stsim, spqi, cost}
     recorded: dict   # lsd, stsim, spqi: each drop against every other
+    filled: dict = field(default_factory=dict)  # (beta, g) -> {lsd, stsim, spqi, cost}, for each fill g > 0
 
 
 def _spectral(preds: np.ndarray, drops: np.ndarray, refs: list, rate_hz: float) -> dict:
@@ -62,10 +69,22 @@ def _spectral(preds: np.ndarray, drops: np.ndarray, refs: list, rate_hz: float) 
             "spqi": float(np.mean([spqi(g, r) for g, r in zip(got, refs)]))}
 
 
+def fill(x: np.ndarray, reference: np.ndarray, g: float, rate_hz: float) -> np.ndarray:
+    """``x`` ``(..., N)`` with each DFT bin above :data:`TEXTURE_HZ` whose magnitude is below ``g |reference|``
+    raised to it, its phase kept (a silent bin takes the reference's); the bins below, and every bin at ``g = 0``,
+    unchanged."""
+    n = x.shape[-1]
+    spectrum, ref = np.fft.rfft(x, axis=-1), np.fft.rfft(reference, axis=-1)
+    have, want = np.abs(spectrum), g * np.abs(ref)
+    low = (np.fft.rfftfreq(n, 1.0 / rate_hz) > TEXTURE_HZ) & (have < want)
+    phase = np.where(have > 0, spectrum / np.where(have > 0, have, 1.0), np.exp(1j * np.angle(ref)))
+    return np.fft.irfft(np.where(low, want * phase, spectrum), n, axis=-1)
+
+
 def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: int, *, rate_hz: float,
-         betas=TEXTURES) -> Fold:
+         betas=TEXTURES, fills=()) -> Fold:
     """The fold at ``velocity``: ``blend`` of its neighbours' representatives, its ``drops`` ``(D, N)`` (D >= 2) and
-    the index of its representative among them."""
+    the index of its representative among them; with each fill ``g`` of ``fills`` on each share too."""
     d = np.asarray(drops, dtype=np.float64)
     blend = np.asarray(blend, dtype=np.float64)
     refs = [prepare(x, rate_hz=rate_hz) for x in d]
@@ -73,16 +92,23 @@ def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: i
     linear = {**_spectral(blend, d, refs, rate_hz), "rmse_mean": float(rmse(blend, mean)),
               "rmse_rep": float(rmse(blend, d[rep]))}
     detail = float(np.sqrt(np.mean(fine(blend - mean, rate_hz) ** 2)))
-    textured = {b: {**_spectral(blend + keep(centres - blend, b, rate_hz), d, refs, rate_hz), "cost": b * detail}
-                for b in betas}
+    textured, filled = {}, {}
+    for b in betas:
+        kept = blend + keep(centres - blend, b, rate_hz)
+        textured[b] = {**_spectral(kept, d, refs, rate_hz), "cost": b * detail}
+        for g in (g for g in fills if g > 0):
+            pred = fill(kept, blend, g, rate_hz)
+            filled[(b, g)] = {**_spectral(pred, d, refs, rate_hz),
+                              "cost": float(np.sqrt(np.mean((pred - centres) ** 2)))}
     pairs = drop_pairs(d, rate_hz=rate_hz)
     recorded = {"lsd": floors(d, rep, rate_hz=rate_hz)["drop_pairs_lsd_db"], "stsim": pairs["drop_to_drop_stsim"],
                 "spqi": pairs["drop_to_drop_spqi"]}
     return Fold(obj, float(velocity), linear, {"rmse_mean": mean_sampling_rmse(d),
-                                               "rmse_rep": float(rmse(centres[rep], d[rep]))}, textured, recorded)
+                                               "rmse_rep": float(rmse(centres[rep], d[rep]))}, textured, recorded,
+                filled)
 
 
-def dataset_folds(dataset, reducer: str, *, progress=None) -> list[Fold]:
+def dataset_folds(dataset, reducer: str, *, fills=(), progress=None) -> list[Fold]:
     """Every fold of ``dataset``: each object's interior velocities, with the bank's representatives as the
     neighbours and the dataset's own choice of representative among the target's drops."""
     from ..data.training import recorded_drops
@@ -101,7 +127,8 @@ def dataset_folds(dataset, reducer: str, *, progress=None) -> list[Fold]:
             v = float(velocities[j])
             w = float(weight(velocities[j - 1], velocities[j + 1], v))
             lo, hi = (bank.profiles[bank.index_of(float(velocities[k]))] for k in (j - 1, j + 1))
-            folds.append(fold(obj, v, (1.0 - w) * lo + w * hi, drops[j], int(chosen[j]), rate_hz=dataset.rate_hz))
+            folds.append(fold(obj, v, (1.0 - w) * lo + w * hi, drops[j], int(chosen[j]), rate_hz=dataset.rate_hz,
+                              fills=fills))
         if progress is not None:
             progress(f"{dataset.name}: {obj}: {len(velocities) - 2} velocities scored")
     if not folds:
@@ -109,21 +136,23 @@ def dataset_folds(dataset, reducer: str, *, progress=None) -> list[Fold]:
     return folds
 
 
-def summarise(folds: list[Fold], betas=TEXTURES) -> list[dict]:
-    """Per texture share: the gap shares of a right centre with that texture, its spectral measures as ratios to
-    linear's (means over the folds), and how many of the bench's four criteria it meets."""
+def summarise(folds: list[Fold], betas=TEXTURES, fills=()) -> list[dict]:
+    """Per texture share, then per share and fill ``g > 0`` of ``fills``: the gap shares of a right centre so
+    textured, its spectral measures as ratios to linear's (means over the folds), and how many of the bench's four
+    criteria it meets."""
     lin = {k: np.mean([f.linear[k] for f in folds]) for k in (*SPECTRAL, "rmse_mean", "rmse_rep")}
     floor = {k: np.array([f.floors[k] for f in folds]) for k in ("rmse_mean", "rmse_rep")}
     gap = {k: lin[k] - floor[k].mean() for k in floor}  # none: NaN, as the bench reports it
     rows = []
-    for b in betas:
-        cost = np.array([f.textured[b]["cost"] for f in folds])
+    for b, g in [(b, 0.0) for b in betas] + [(b, g) for g in fills if g > 0 for b in betas]:
+        got = [f.filled[(b, g)] if g else f.textured[b] for f in folds]
+        cost = np.array([x["cost"] for x in got])
         share = {k: float((lin[k] - np.mean(np.hypot(floor[k], cost))) / gap[k]) if gap[k] > 0 else float("nan")
                  for k in floor}
-        ratio = {k: float(np.mean([f.textured[b][k] for f in folds]) / lin[k]) for k in SPECTRAL}
+        ratio = {k: float(np.mean([x[k] for x in got]) / lin[k]) for k in SPECTRAL}
         met = int(share["rmse_mean"] >= KEEP_SHARE) + int(share["rmse_rep"] >= KEEP_SHARE) + sum(_spectral_met(ratio))
-        rows.append({"texture": b, "share_mean": share["rmse_mean"], "share_rep": share["rmse_rep"], **ratio,
-                     "criteria": met})
+        rows.append({"texture": b, "fill": g, "share_mean": share["rmse_mean"], "share_rep": share["rmse_rep"],
+                     **ratio, "criteria": met})
     return rows
 
 
@@ -141,4 +170,4 @@ def recorded(folds: list[Fold]) -> dict:
     return {**ratio, "lsd_met": lsd_met, "perceptual_met": perceptual_met}
 
 
-__all__ = ["Fold", "dataset_folds", "fold", "recorded", "summarise"]
+__all__ = ["Fold", "dataset_folds", "fill", "fold", "recorded", "summarise"]
