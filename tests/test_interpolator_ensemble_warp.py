@@ -10,8 +10,8 @@ from hapticfx.errors import SignalError
 from hapticfx.interfaces import Profile, TrainingData
 from hapticfx.interpolators.ensemble_warp import (SMOOTHING, TOLERANCE, EnsembleWarpInterpolator, Fit,
                                                  jackknife_noise, shrunk_centres, smoothed_centres, tabulate)
-from hapticfx.interpolators.texture import KEEP_SHARE, TEXTURE_HZ
-from hapticfx.interpolators.residual import scale
+from hapticfx.interpolators.texture import KEEP_SHARE, TEXTURE_HZ, filling, label
+from hapticfx.interpolators.residual import bump, scale
 from hapticfx.interpolators.warp import Morph, displacement, warp_path
 
 N = 200
@@ -342,8 +342,8 @@ def test_the_built_in_sets_shipped_table_is_what_a_fit_of_its_drops_chooses_now(
     ds = open_dataset("builtin:helmet-drops")
     shipped = VelocityTable.load(table_path(ds.path, reducer)).meta["source"]
     summary = Fit(training_data(ds, reducer)).summary()
-    assert shipped == {"trim": summary["trim"], "texture": summary["texture"], "penalty": summary["penalty"],
-                       "shrink": summary["shrink"], "smooth": summary["smooth"]}
+    assert shipped == {"trim": summary["trim"], "texture": summary["texture"], "fill": 0.0,
+                       "penalty": summary["penalty"], "shrink": summary["shrink"], "smooth": summary["smooth"]}
 
 
 def test_a_table_written_before_smoothing_was_offered_still_serves_and_describes_itself():
@@ -415,6 +415,52 @@ def test_texture_is_chosen_where_the_drops_mean_loses_their_detail_and_not_where
     assert plain.texture == 0.0
 
 
+def test_a_fill_raises_the_centres_quiet_bins_as_at_each_intervals_middle_and_the_table_serves_it_as_small():
+    data = _ringing()
+    bank = data.banks["bell"]
+    plain, filled = Fit(data, texture=0.2, fill=0.0), Fit(data, texture=0.2, fill=0.5)
+    assert filled.summary()["fill"] == 0.5 and not filled.fill_chosen
+    warps = {}
+    for name, fit in (("plain", plain), ("filled", filled)):
+        warps[name] = EnsembleWarpInterpolator(texture=0.2)
+        warps[name].fitted = fit
+    f = np.fft.rfftfreq(N, 1e-3)
+    for i in range(len(bank) - 1):
+        lo, hi = bank[i], bank[i + 1]
+        mid = 0.5 * (lo.samples + hi.samples)
+        added = filling(mid, filled.morph("bell", i)(0.5) - mid, 0.2, 0.5, 1000.0)
+        assert np.abs(added).max() > 0.0  # the case is not empty: the mean of the rings left quiet bins
+        for w in (0.0, 0.1, 0.5, 0.8):
+            x = float(lo.velocity + w * (hi.velocity - lo.velocity))
+            got = warps["filled"].interpolate(lo, hi, x) - warps["plain"].interpolate(lo, hi, x)
+            assert np.allclose(got, bump(w) * added, rtol=0, atol=1e-12)  # the middle's fill, drawn in by the bump
+        assert np.array_equal(warps["filled"].interpolate(lo, hi, float(lo.velocity)), lo.samples)
+        # at the middle no bin of the centre above 100 Hz is quieter than half the blend's
+        centre = np.fft.rfft(warps["filled"].interpolate(lo, hi, float(0.5 * (lo.velocity + hi.velocity))))
+        above = f > TEXTURE_HZ
+        assert np.all(np.abs(centre[above]) >= 0.5 * np.abs(np.fft.rfft(mid))[above] - 1e-9)
+    table, unfilled = tabulate(filled), tabulate(plain)
+    assert table.n_nodes == unfilled.n_nodes and table.meta["source"]["fill"] == 0.5
+    table.attach(bank, rebuild="(test)")
+    lo, hi = bank[2], bank[3]
+    s = max(np.abs(lo.samples).max(), np.abs(hi.samples).max())
+    for x in np.linspace(lo.velocity, hi.velocity, 9):
+        served = table.lookup(lo, hi, float(x))
+        assert np.abs(served - warps["filled"].interpolate(lo, hi, float(x))).max() <= TOLERANCE * s
+
+
+def test_a_fill_chosen_with_the_texture_is_the_admissible_pair_of_most_expected_criteria():
+    fit = Fit(_ringing(), fill=None)
+    scores = fit.texture_scores
+    assert fit.fill_chosen and {k for k in scores if "fill" in k} == {f"{b} fill {g}" for b in (0.0, 0.2, 0.4, 0.6, 0.8)
+                                                                      for g in (0.25, 0.5, 0.75)}
+    admissible = [k for k in scores if k != "linear" and (k == "0.0" or scores[k]["share"] >= KEEP_SHARE)]
+    best = max(scores[k]["expected_criteria"] for k in admissible)
+    assert scores[label(fit.texture, fit.fill)]["expected_criteria"] == best
+    assert tabulate(fit).meta["source"]["fill"] == "choose" and fit.summary()["fill"] == fit.fill
+    assert Fit(_ringing(ring=0.0), fill=None).fill == 0.0  # nothing the mean loses: nothing to fill
+
+
 def test_a_texture_out_of_range_is_refused_and_one_fixed_apart_from_the_shipped_table_is_fitted(tmp_path):
     from hapticfx.data.build import build_dataset
     from hapticfx.data.dataset import open_dataset
@@ -428,6 +474,11 @@ def test_a_texture_out_of_range_is_refused_and_one_fixed_apart_from_the_shipped_
 
     with pytest.raises(SignalError, match="interpolator_options.texture must be <= 1.0"):
         EnsembleWarpInterpolator(texture=1.5)
+    with pytest.raises(SignalError, match="fill must be a number from 0 to 1 or 'choose', got 'some'"):
+        EnsembleWarpInterpolator(fill="some")
+    with pytest.raises(SignalError, match="interpolator_options.fill must be <= 1.0"):
+        EnsembleWarpInterpolator(fill=2)
+    assert EnsembleWarpInterpolator(fill="choose").fixed()["fill"] == "choose"
     recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], [2.42, 2.80, 3.13, 3.43, 3.96], drops=4, seed=1)]
     ds = open_dataset(build_dataset(tmp_path / "ds", recs, name="w", rate_hz=1000.0, sensor={"model": "synthetic"},
                                     provenance={"source": "test"}))
@@ -441,6 +492,9 @@ def test_a_texture_out_of_range_is_refused_and_one_fixed_apart_from_the_shipped_
     assert model(texture=shipped)["served_from"]["table"] == str(table_path(ds.path, "max-min"))
     other = model(texture=0.8 if shipped != 0.8 else 0.6)
     assert other["served_from"]["table"] == "velocity table" and other["texture"] in (0.6, 0.8)
+    assert model(fill=0.0)["served_from"]["table"] == str(table_path(ds.path, "max-min"))  # the shipped: no fill
+    for fill in (0.5, "choose"):  # a table with a fill is fitted when the effect loads
+        assert model(fill=fill)["served_from"]["table"] == "velocity table"
     with pytest.raises(EffectError, match="texture"):
         model(texture=float("nan"))
 

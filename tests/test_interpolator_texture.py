@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hapticfx.interpolators.texture import KEEP_SHARE, TEXTURE_HZ, Target, choose, fine, keep
+from hapticfx.interpolators.texture import (FILLS, KEEP_SHARE, TEXTURE_HZ, Target, choose, fill, fine, keep,
+                                            textured)
 
 N = 200
 
@@ -53,9 +54,51 @@ def _target(seed: int, ring: float) -> Target:
 
 
 def test_the_choice_keeps_detail_the_centre_lost_and_none_where_there_is_none():
-    beta, scores = choose([_target(k, 0.3) for k in range(12)])
-    assert beta > 0.0 and scores[str(beta)]["spqi"] > scores["0.0"]["spqi"]
+    (beta, g), scores = choose([_target(k, 0.3) for k in range(12)])
+    assert g == 0.0 and beta > 0.0 and scores[str(beta)]["spqi"] > scores["0.0"]["spqi"]
     assert scores[str(beta)]["share"] >= KEEP_SHARE and scores["0.8"]["share"] < KEEP_SHARE  # not the most detail
     assert set(scores) == {"linear", "0.0", "0.2", "0.4", "0.6", "0.8"}
-    assert choose([_target(k, 0.0) for k in range(12)])[0] == 0.0  # every beta the same profile: the least
-    assert choose([]) == (0.0, {})
+    assert choose([_target(k, 0.0) for k in range(12)])[0] == (0.0, 0.0)  # every beta the same profile: the least
+    assert choose([]) == ((0.0, 0.0), {})
+
+
+def test_fill_raises_only_the_quiet_bins_above_100_hz_and_keeps_their_phase():
+    rng = np.random.default_rng(3)
+    x, ref = rng.standard_normal((2, 500)), rng.standard_normal(500)
+    f = np.fft.rfftfreq(500, 1.0 / 1000.0)
+    X, Y, R = np.fft.rfft(x), np.fft.rfft(fill(x, ref, 0.5, 1000.0)), np.fft.rfft(ref)
+    above = f > 100.0
+    np.testing.assert_allclose(np.abs(Y[:, above]), np.maximum(np.abs(X[:, above]), 0.5 * np.abs(R[above])), rtol=1e-9)
+    np.testing.assert_allclose(Y[:, ~above], X[:, ~above], rtol=1e-9, atol=1e-9)
+    raised = above & (np.abs(X) < 0.5 * np.abs(R))
+    assert raised.sum() > 10  # the case is not empty
+    np.testing.assert_allclose(np.angle(Y[raised]), np.angle(X[raised]), atol=1e-9)
+    np.testing.assert_allclose(fill(x, ref, 0.0, 1000.0), x, atol=1e-12)
+    # a silent profile takes the reference's phase: above 100 Hz it becomes g times the reference there
+    np.testing.assert_allclose(np.fft.rfft(fill(np.zeros(500), ref, 0.5, 1000.0))[above], 0.5 * R[above], atol=1e-9)
+
+
+def test_textured_keeps_then_fills_the_centre_and_is_keep_without_a_fill():
+    rng = np.random.default_rng(4)
+    blend, diff = rng.standard_normal((2, N))
+    np.testing.assert_array_equal(textured(diff, blend, 0.4, 0.0, 1000.0), keep(diff, 0.4, 1000.0))
+    np.testing.assert_allclose(textured(diff, blend, 0.4, 0.5, 1000.0),
+                               fill(blend + keep(diff, 0.4, 1000.0), blend, 0.5, 1000.0) - blend, atol=1e-12)
+
+
+def test_a_fill_chosen_with_the_share_is_the_admissible_pair_of_most_expected_criteria():
+    targets = [_target(k, 0.3) for k in range(12)]
+    (beta, g), scores = choose(targets, fills=FILLS)
+    pairs = [(b, f) for b in (0.0, 0.2, 0.4, 0.6, 0.8) for f in FILLS]
+    name = {p: str(p[0]) if not p[1] else f"{p[0]} fill {p[1]}" for p in pairs}
+    assert set(scores) == {"linear", *name.values()}
+    admissible = [p for p in pairs if p == (0.0, 0.0) or scores[name[p]]["share"] >= KEEP_SHARE]
+    assert (beta, g) in admissible
+    assert scores[name[(beta, g)]]["expected_criteria"] == max(scores[name[p]]["expected_criteria"] for p in admissible)
+    # the fill buys log-spectral distance at an RMSE cost, more of both the higher it fills
+    lsd = [scores[name[(0.0, f)]]["lsd"] for f in FILLS]
+    rmse = [scores[name[(0.0, f)]]["rmse_mean"] for f in FILLS]
+    assert np.all(np.diff(lsd) < 0) and np.all(np.diff(rmse) > 0)
+    # a fixed share: only the fill is chosen; the first pair (no fill) is always admissible
+    (b2, _), fixed = choose(targets, betas=(0.8,), fills=FILLS)
+    assert b2 == 0.8 and set(fixed) == {"linear", "0.8", *(f"0.8 fill {f}" for f in FILLS[1:])}

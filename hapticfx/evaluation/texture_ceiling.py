@@ -17,11 +17,12 @@ mean, the other drops' mean against the representative. The texture adds ``beta 
 either in quadrature (its detail comes from the neighbours, independent of the target's drops); the gap shares
 follow as the bench computes them, from means over the folds. Point estimates, no intervals.
 
-With ``fills``, each share is also scored with a spectral fill on top (:func:`fill`): the textured centre's phase
-kept, every bin above :data:`~hapticfx.interpolators.texture.TEXTURE_HZ` whose magnitude is below ``g`` times the
-blend's raised to it. Added in phase with the centre, it buys more log-spectral distance per unit of RMSE than the
-neighbours' detail, whose phase is unrelated to the centre's; its cost is the RMS of what it and the texture add to
-each left-out centre. It measures a lead, not a method: no interpolator fills yet.
+With ``fills``, each share is also scored with a spectral fill on top
+(:func:`~hapticfx.interpolators.texture.fill`): the textured centre's phase kept, every bin above 100 Hz whose
+magnitude is below ``g`` times the blend's raised to it. Added in phase with the centre, it buys more log-spectral
+distance per unit of RMSE than the neighbours' detail, whose phase is unrelated to the centre's; its cost is the
+RMS of what it and the texture add to each left-out centre. ``ensemble-warp`` fills the same way when its ``fill``
+option asks it to, each interval as at its middle.
 
 Beside them, what a recorded drop of the velocity scores on the same spectral measures, each drop taken as the
 prediction of every other (:func:`~hapticfx.evaluation.measures.floors` and
@@ -37,7 +38,7 @@ import numpy as np
 
 from ..errors import DatasetError
 from ..interpolators.residual import weight
-from ..interpolators.texture import KEEP_SHARE, TEXTURE_HZ, TEXTURES, fine, keep
+from ..interpolators.texture import KEEP_SHARE, TEXTURES, fine, keep, textured
 from ..processing.likeness import log_spectral_distance, mean_sampling_rmse, rmse
 from ..processing.perceptual import prepare, spqi, st_sim
 from .measures import drop_pairs, floors, leave_one_out_means
@@ -69,18 +70,6 @@ def _spectral(preds: np.ndarray, drops: np.ndarray, refs: list, rate_hz: float) 
             "spqi": float(np.mean([spqi(g, r) for g, r in zip(got, refs)]))}
 
 
-def fill(x: np.ndarray, reference: np.ndarray, g: float, rate_hz: float) -> np.ndarray:
-    """``x`` ``(..., N)`` with each DFT bin above :data:`TEXTURE_HZ` whose magnitude is below ``g |reference|``
-    raised to it, its phase kept (a silent bin takes the reference's); the bins below, and every bin at ``g = 0``,
-    unchanged."""
-    n = x.shape[-1]
-    spectrum, ref = np.fft.rfft(x, axis=-1), np.fft.rfft(reference, axis=-1)
-    have, want = np.abs(spectrum), g * np.abs(ref)
-    low = (np.fft.rfftfreq(n, 1.0 / rate_hz) > TEXTURE_HZ) & (have < want)
-    phase = np.where(have > 0, spectrum / np.where(have > 0, have, 1.0), np.exp(1j * np.angle(ref)))
-    return np.fft.irfft(np.where(low, want * phase, spectrum), n, axis=-1)
-
-
 def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: int, *, rate_hz: float,
          betas=TEXTURES, fills=()) -> Fold:
     """The fold at ``velocity``: ``blend`` of its neighbours' representatives, its ``drops`` ``(D, N)`` (D >= 2) and
@@ -92,19 +81,19 @@ def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: i
     linear = {**_spectral(blend, d, refs, rate_hz), "rmse_mean": float(rmse(blend, mean)),
               "rmse_rep": float(rmse(blend, d[rep]))}
     detail = float(np.sqrt(np.mean(fine(blend - mean, rate_hz) ** 2)))
-    textured, filled = {}, {}
+    kept_share, filled = {}, {}
     for b in betas:
         kept = blend + keep(centres - blend, b, rate_hz)
-        textured[b] = {**_spectral(kept, d, refs, rate_hz), "cost": b * detail}
+        kept_share[b] = {**_spectral(kept, d, refs, rate_hz), "cost": b * detail}
         for g in (g for g in fills if g > 0):
-            pred = fill(kept, blend, g, rate_hz)
+            pred = blend + textured(centres - blend, blend, b, g, rate_hz)
             filled[(b, g)] = {**_spectral(pred, d, refs, rate_hz),
                               "cost": float(np.sqrt(np.mean((pred - centres) ** 2)))}
     pairs = drop_pairs(d, rate_hz=rate_hz)
     recorded = {"lsd": floors(d, rep, rate_hz=rate_hz)["drop_pairs_lsd_db"], "stsim": pairs["drop_to_drop_stsim"],
                 "spqi": pairs["drop_to_drop_spqi"]}
     return Fold(obj, float(velocity), linear, {"rmse_mean": mean_sampling_rmse(d),
-                                               "rmse_rep": float(rmse(centres[rep], d[rep]))}, textured, recorded,
+                                               "rmse_rep": float(rmse(centres[rep], d[rep]))}, kept_share, recorded,
                 filled)
 
 
@@ -170,4 +159,4 @@ def recorded(folds: list[Fold]) -> dict:
     return {**ratio, "lsd_met": lsd_met, "perceptual_met": perceptual_met}
 
 
-__all__ = ["Fold", "dataset_folds", "fill", "fold", "recorded", "summarise"]
+__all__ = ["Fold", "dataset_folds", "fold", "recorded", "summarise"]

@@ -54,7 +54,13 @@ A mean of drops that ring out of phase is duller above about 100 Hz than any
 recorded drop, and on the vibrotactile field's spectral measures it can score below
 linear's blend of two recorded drops, while it is nearest their mean in RMSE.
 ``beta`` trades the one for the other, chosen on the same left-out training
-velocities (:func:`texture_targets`).
+velocities (:func:`texture_targets`). With the ``fill`` option the textured centre
+is also filled: each bin above 100 Hz quieter than ``g`` times the blend's raised
+to it in the centre's own phase, ``g`` fixed or chosen with ``beta`` from
+:data:`~hapticfx.interpolators.texture.FILLS` (``fill: choose``; 0, no fill, by
+default). Each interval is filled as at its middle (``at`` of
+:func:`~hapticfx.interpolators.texture.textured`), so that its table stays as
+small as without a fill.
 
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
@@ -77,12 +83,13 @@ from . import ensemble
 from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
 from .residual import compose, scale
 from .table import VelocityTable, build_table, neighbours
-from .texture import Target, choose as choose_texture, keep as keep_texture
+from .texture import FILLS, TEXTURES, Target, choose as choose_texture, filling, textured
 
 if TYPE_CHECKING:
     from .warp import Morph
 
 NAME = "ensemble-warp"
+CHOOSE = "choose"  # the fill option's value that asks for it to be chosen
 PENALTIES = (0.01, 0.03, float("inf"))
 TOLERANCE = 1e-3  # of the neighbours' larger peak: -60 dB
 
@@ -228,14 +235,17 @@ def penalty_folds(objects: dict[str, _Object], paths: dict) -> dict[str, dict[fl
             for obj, o in objects.items()}
 
 
-def _left_out_targets(o: _Object, penalty: float, paths: dict, pool):
+def _left_out_targets(o: _Object, penalty: float, paths: dict, pool, *, middle: bool = False):
     """Each of ``o``'s training targets ``i`` left out, from the centres of the velocities that remain as
-    ``pool(velocities, centres, noise)`` pools them: ``(i, w, blend, centre)`` (:func:`_blend_and_centre`)."""
+    ``pool(velocities, centres, noise)`` pools them: ``(i, w, blend, centre)`` (:func:`_blend_and_centre`), and
+    with ``middle`` the blend and centre halfway between its neighbours too."""
     for i in o.scored:
         keep = np.arange(len(o.velocities)) != i
-        c = pool(o.velocities[keep], o.centres[keep], o.noise[keep])
+        v, c, reps = o.velocities[keep], pool(o.velocities[keep], o.centres[keep], o.noise[keep]), o.reps[keep]
         # in the kept arrays, i's neighbours are i - 1 and i
-        yield i, *_blend_and_centre(o.reps[keep], c, o.velocities[keep], i - 1, i, o.velocities[i], penalty, paths)
+        found = (i, *_blend_and_centre(reps, c, v, i - 1, i, o.velocities[i], penalty, paths))
+        yield (*found, _blend_and_centre(reps, c, v, i - 1, i, 0.5 * (v[i - 1] + v[i]), penalty, paths)[1:]) \
+            if middle else found
 
 
 def _left_out(o: _Object, penalty: float, paths: dict, pool) -> list[float]:
@@ -282,18 +292,22 @@ def choose_smoothing(objects: dict[str, _Object], penalties: dict[str, float], s
 
 def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], pools: dict, paths: dict):
     """Every object's training targets, each left out and predicted as the fit predicts it (the object's penalty,
-    its centres pooled as ``pools[obj](velocities, centres, noise)`` among the velocities that remain), as
-    :func:`hapticfx.interpolators.texture.choose` takes them."""
+    its centres pooled as ``pools[obj](velocities, centres, noise)`` among the velocities that remain, filled as
+    at the middle of its interval), as :func:`hapticfx.interpolators.texture.choose` takes them."""
     for obj, o in objects.items():
-        for i, w, blend, centre in _left_out_targets(o, penalties[obj], paths, pools[obj]):
-            yield Target(w, blend, centre - blend, o.drops[i], o.means[i], o.reps[i], o.rate_hz)
+        for i, w, blend, centre, (mid_blend, mid_centre) in _left_out_targets(o, penalties[obj], paths, pools[obj],
+                                                                              middle=True):
+            yield Target(w, blend, centre - blend, o.drops[i], o.means[i], o.reps[i], o.rate_hz,
+                         at=(mid_blend, mid_centre - mid_blend))
 
 
 class Fit:
     """What the method learned from ``data``: ``trim``, every object's ``penalties`` and drop centres, the
-    dataset's ``texture``; the morph of each recorded interval is made on first use."""
+    dataset's ``texture`` and ``fill``; the morph of each recorded interval is made on first use. ``trim`` and
+    ``texture`` None: chosen; ``fill`` None: chosen with the texture, from :data:`FILLS`."""
 
-    def __init__(self, data: TrainingData, *, trim: float | None = None, texture: float | None = None):
+    def __init__(self, data: TrainingData, *, trim: float | None = None, texture: float | None = None,
+                 fill: float | None = 0.0):
         missing = [obj for obj in data.banks if obj not in data.drops]
         if missing:
             raise DatasetError(f"the {NAME} interpolator needs every recorded drop; dataset {data.dataset!r} keeps "
@@ -313,14 +327,17 @@ class Fit:
         self.smooth, self.pooled_smooth, self.smooth_scores = choose_smoothing(objects, self.penalties, self.shrink,
                                                                                shrink_folds, paths)
         pools = {obj: self._pool(obj, paths) for obj in objects}
-        self.texture, self.texture_scores = texture, None
-        if texture is None:
-            self.texture, self.texture_scores = choose_texture(texture_targets(objects, self.penalties, pools, paths))
+        self.texture, self.fill, self.fill_chosen, self.texture_scores = texture, fill, fill is None, None
+        if texture is None or fill is None:
+            (self.texture, self.fill), self.texture_scores = choose_texture(
+                list(texture_targets(objects, self.penalties, pools, paths)),
+                betas=TEXTURES if texture is None else (texture,), fills=FILLS if fill is None else (fill,))
         self.centres = {obj: pools[obj](o.velocities, o.centres, o.noise) for obj, o in objects.items()}
         self._objects, self._pools = objects, pools
         self._rate = {obj: o.rate_hz for obj, o in objects.items()}
         self.unwarped: list[tuple[str, int]] = []  # intervals a table serves without their warp (:meth:`unwarp`)
         self._morphs: dict[tuple[str, int], Morph] = {}
+        self._fills: dict[tuple[str, int], np.ndarray] = {}  # each interval's fill, as at its middle
         self._index = {(obj, float(v)): i for obj, bank in data.banks.items() for i, v in enumerate(bank.velocities)}
 
     def centres_without(self, obj: str, i: int) -> np.ndarray:
@@ -354,11 +371,25 @@ class Fit:
         then served as ``ensemble`` serves it, and the fit says so (``unwarped`` in its summary)."""
         self.unwarped.append((obj, i))
         self._morphs.pop((obj, i), None)
+        self._fills.pop((obj, i), None)
 
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
         """``r`` of :mod:`hapticfx.interpolators.residual` at ``w`` between ``lower`` (at ``v_lo``) and ``upper``."""
-        diff = self.morph(obj, self._index[(obj, float(v_lo))])(w) - (1 - w) * lower - w * upper
-        return keep_texture(diff, self.texture, self._rate[obj]) / scale(lower, upper)
+        i = self._index[(obj, float(v_lo))]
+        blend = (1 - w) * lower + w * upper
+        kept = textured(self.morph(obj, i)(w) - blend, blend, self.texture, 0.0, self._rate[obj])
+        return (kept + self._fill(obj, i, lower, upper)) / scale(lower, upper)
+
+    def _fill(self, obj: str, i: int, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | float:
+        """What the fill adds to the centre all along ``obj``'s interval ``i``: its fill at the middle
+        (:func:`~hapticfx.interpolators.texture.filling`); 0 without a fill."""
+        if not self.fill:
+            return 0.0
+        if (obj, i) not in self._fills:
+            blend = 0.5 * (lower + upper)
+            self._fills[(obj, i)] = filling(blend, self.morph(obj, i)(0.5) - blend, self.texture, self.fill,
+                                            self._rate[obj])
+        return self._fills[(obj, i)]
 
     def find(self, lower, upper) -> str | None:
         """The object whose recorded neighbours ``lower`` and ``upper`` are (None: not fitted)."""
@@ -374,7 +405,7 @@ class Fit:
         def name(p):
             return None if not np.isfinite(p) else p
 
-        return {"trim": self.trim, "texture": self.texture,
+        return {"trim": self.trim, "texture": self.texture, "fill": self.fill,
                 "penalty": {obj: name(p) for obj, p in self.penalties.items()},
                 "pooled_penalty": name(self.pooled_penalty),
                 "warped_objects": sum(bool(np.isfinite(p)) for p in self.penalties.values()),
@@ -406,23 +437,28 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
                          for k in range(len(v))])
 
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
-                        source={"trim": fit.trim, "texture": fit.texture, "penalty": fit.summary()["penalty"],
+                        source={"trim": fit.trim, "texture": fit.texture,
+                                "fill": CHOOSE if fit.fill_chosen else fit.fill,
+                                "penalty": fit.summary()["penalty"],
                                 "shrink": dict(fit.shrink), "smooth": dict(fit.smooth)},
                         dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress, on_rough=fit.unwarp)
     table.meta["fit"] = fit.summary()
     return table
 
 
-def fit_table(data: TrainingData, *, trim: float | None = None, texture: float | None = None) -> VelocityTable:
+def fit_table(data: TrainingData, *, trim: float | None = None, texture: float | None = None,
+              fill: float | str = 0.0) -> VelocityTable:
     """The ensemble-warp's velocity table for every object of ``data`` (``trim`` and ``texture`` chosen where not
-    given)."""
-    return tabulate(Fit(data, trim=trim, texture=texture))
+    given, ``fill`` where it is :data:`CHOOSE`). Its source records the fill as asked: a number, or
+    :data:`CHOOSE` (what was chosen is in its fit's summary)."""
+    return tabulate(Fit(data, trim=trim, texture=texture, fill=None if fill == CHOOSE else fill))
 
 
 class EnsembleWarpInterpolator(EnsembleInterpolator):
     """The ensemble with its neighbours' drop centres aligned in time before they blend (see the module docs).
-    Options as ``ensemble``'s (``table``, ``trim``), and ``texture`` (fix the share of the representatives' fine
-    detail kept, 0 to 1, instead of the fitted one; the table is then fitted when the effect loads).
+    Options as ``ensemble``'s (``table``, ``trim``), ``texture`` (fix the share of the representatives' fine
+    detail kept, 0 to 1, instead of the fitted one; the table is then fitted when the effect loads) and ``fill``
+    (0, the default: none; a number below 1 fixes ``g``; ``choose``: chosen with the texture).
 
     After :meth:`fit` (an evaluation) it answers directly from what it fitted; an effect serves it from its
     table (the dataset's ``tables/ensemble-warp-<reducer>.table.npz``, or tabulated when the effect loads).
@@ -434,16 +470,23 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
     fit_table = staticmethod(fit_table)
     table_path = staticmethod(table_path)
 
-    def __init__(self, *, table=None, trim: float | None = None, texture: float | None = None):
+    def __init__(self, *, table=None, trim: float | None = None, texture: float | None = None,
+                 fill: float | str = 0.0):
         super().__init__(table=table, trim=trim)
         self.texture = None if texture is None else valid_number(texture, name="interpolator_options.texture",
                                                                  minimum=0.0, maximum=1.0)
+        if isinstance(fill, str) and fill != CHOOSE:
+            raise SignalError(f"interpolator_options.fill must be a number from 0 to 1 or {CHOOSE!r}, got {fill!r}")
+        self.fill = fill if fill == CHOOSE else valid_number(fill, name="interpolator_options.fill", minimum=0.0,
+                                                             maximum=1.0)
 
     def fixed(self) -> dict:
-        return {**super().fixed(), "texture": self.texture}
+        return {**super().fixed(), "texture": self.texture, "fill": self.fill}
 
     def fit(self, data: TrainingData, **options) -> dict:
-        self.fitted, self.table = Fit(data, **self.fixed()), None
+        fixed = self.fixed()
+        fixed["fill"] = None if self.fill == CHOOSE else self.fill
+        self.fitted, self.table = Fit(data, **fixed), None
         return {k: v for k, v in self.fitted.summary().items() if not isinstance(v, dict)}
 
     def prepare(self, bank, *, dataset=None, base_dir=None) -> None:
@@ -470,6 +513,7 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
         return {**super().describe(),
                 "warp penalty": {obj: "none" if p is None else p for obj, p in source["penalty"].items()},
                 "texture": source.get("texture", 0.0),  # none in a table written before the texture
+                "fill": self.table.meta["fit"].get("fill", 0.0),
                 "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()},
                 "centres smoothed": {obj: "no" if s is None else s  # none in a table written before smoothing
                                      for obj, s in source.get("smooth", {}).items()}}
@@ -477,4 +521,4 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
 
 __all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "choose_smoothing", "fit_table", "jackknife_noise",
            "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate", "table_path",
-           "texture_targets", "MIN_FOLDS", "PENALTIES", "SHRINK", "SMOOTHING", "TOLERANCE"]
+           "texture_targets", "CHOOSE", "MIN_FOLDS", "PENALTIES", "SHRINK", "SMOOTHING", "TOLERANCE"]

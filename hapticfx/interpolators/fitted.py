@@ -24,8 +24,10 @@ def describe(table) -> str:
     shrunk = sum(bool(s) for s in source["shrink"].values())
     smoothed = sum(s is not None for s in source.get("smooth", {}).values())  # none before smoothing was offered
     unwarped = table.meta.get("fit", {}).get("unwarped", [])
+    fill = table.meta.get("fit", {}).get("fill", 0.0)  # none before it was offered
     return (f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk, "
             f"{smoothed} smoothed, texture {source.get('texture', 0.0)}"  # no texture before it was offered
+            + (f", fill {fill}" if fill else "")
             + (f"; served without the warp: {', '.join(unwarped)}" if unwarped else ""))
 
 

@@ -11,9 +11,19 @@ drop). Keeping a share ``beta`` of the representatives' content above
 
     centre' = centre + beta fine(blend - centre),   i.e.   diff' = diff - beta fine(diff)
 
-:func:`choose` picks ``beta`` from :data:`TEXTURES` on targets left out of the
-training data (:class:`Target`), as the bench's generalisation protocol would judge
-them (module ``hapticfx.evaluation.protocol``, whose bar :data:`KEEP_SHARE` repeats).
+The neighbours' detail has a phase unrelated to the centre's, so it costs RMSE for
+every dB of log-spectral distance it buys. A spectral **fill** buys it more cheaply:
+each DFT bin of the textured centre above :data:`TEXTURE_HZ` whose magnitude is below
+``g`` times the blend's is raised to it in the centre's own phase (:func:`fill`; ``g``
+from :data:`FILLS`, 0: none). Both act on the centre; the profile is drawn toward it
+as before (:func:`textured`), so a recorded neighbour still comes back at its own
+velocity. A method served from a table fills each interval as at its middle
+(``at`` of :func:`textured`).
+
+:func:`choose` picks ``beta`` from :data:`TEXTURES` (and, when asked, ``g`` with it)
+on targets left out of the training data (:class:`Target`), as the bench's
+generalisation protocol would judge them (module ``hapticfx.evaluation.protocol``,
+whose bar :data:`KEEP_SHARE` repeats).
 """
 
 from __future__ import annotations
@@ -27,6 +37,7 @@ from .residual import bump
 
 TEXTURE_HZ = 100.0
 TEXTURES = (0.0, 0.2, 0.4, 0.6, 0.8)
+FILLS = (0.0, 0.25, 0.5, 0.75)
 KEEP_SHARE = 0.6  # of the gap between linear and a floor: the bar of the bench's generalisation protocol
 BOOTSTRAP = 500  # resamples of the left-out targets
 MEASURES = ("lsd", "stsim", "spqi", "rmse_mean", "rmse_rep")
@@ -47,11 +58,50 @@ def keep(diff: np.ndarray, beta: float, rate_hz: float) -> np.ndarray:
     return diff - beta * fine(diff, rate_hz) if beta else diff
 
 
+def fill(x: np.ndarray, reference: np.ndarray, g: float, rate_hz: float) -> np.ndarray:
+    """``x`` ``(..., N)`` with each DFT bin above :data:`TEXTURE_HZ` whose magnitude is below ``g |reference|``
+    raised to it, its phase kept (a silent bin takes the reference's); the bins below, and every bin at ``g = 0``,
+    unchanged."""
+    if not g:
+        return x
+    n = x.shape[-1]
+    spectrum, ref = np.fft.rfft(x, axis=-1), np.fft.rfft(reference, axis=-1)
+    have, want = np.abs(spectrum), g * np.abs(ref)
+    low = (np.fft.rfftfreq(n, 1.0 / rate_hz) > TEXTURE_HZ) & (have < want)
+    phase = np.where(have > 0, spectrum / np.where(have > 0, have, 1.0), np.exp(1j * np.angle(ref)))
+    return np.fft.irfft(np.where(low, want * phase, spectrum), n, axis=-1)
+
+
+def filling(blend: np.ndarray, diff: np.ndarray, beta: float, g: float, rate_hz: float) -> np.ndarray:
+    """What the fill ``g`` adds to the centre ``blend + keep(diff, beta)``: ``fill(centre, blend, g) - centre``."""
+    centre = blend + keep(diff, beta, rate_hz)
+    return fill(centre, blend, g, rate_hz) - centre
+
+
+def textured(diff: np.ndarray, blend: np.ndarray, beta: float, g: float, rate_hz: float, *,
+             at: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """``diff`` (centre - blend) as the profile is drawn toward it: ``beta`` of the blend's fine detail kept
+    (:func:`keep`), plus the fill ``g`` of the centre so textured (:func:`filling`) where ``at`` = ``(blend, diff)``
+    says, by default here. A method served from a table fills each interval as at its middle: the fill is then
+    the same all along the interval, and the residual as smooth in velocity as the centre is (a fill computed at
+    each velocity bends wherever a bin crosses its bar, and no table of reasonable size follows it)."""
+    kept = keep(diff, beta, rate_hz)
+    if not g:
+        return kept
+    return kept + filling(*((blend, diff) if at is None else at), beta, g, rate_hz)
+
+
+def label(beta: float, g: float) -> str:
+    """How :func:`choose`'s scores name a share ``beta`` with fill ``g``: ``"0.4"``, or ``"0.4 fill 0.5"``."""
+    return str(float(beta)) if not g else f"{float(beta)} fill {float(g)}"
+
+
 @dataclass(frozen=True)
 class Target:
     """One left-out target: the representatives' ``blend`` at its position ``w``, the method's ``diff`` there
     (centre - blend), and what the target velocity recorded (``drops`` ``(D, N)``, their ``mean``, the bank's
-    representative ``rep``)."""
+    representative ``rep``); ``at``: the blend and diff where the method computes its fill (:func:`textured`;
+    None: at the target)."""
 
     w: float
     blend: np.ndarray
@@ -60,25 +110,29 @@ class Target:
     mean: np.ndarray
     rep: np.ndarray
     rate_hz: float
+    at: tuple[np.ndarray, np.ndarray] | None = None
 
 
-def choose(targets: Iterable[Target]) -> tuple[float, dict]:
-    """The texture ``beta`` from :data:`TEXTURES`, and each one's mean scores (and linear's).
+def choose(targets: Iterable[Target], *, betas=TEXTURES, fills=(0.0,)) -> tuple[tuple[float, float], dict]:
+    """The texture ``(beta, g)``, each ``beta`` of ``betas`` with each fill ``g`` of ``fills``, and each pair's mean
+    scores (and linear's), named by :func:`label`.
 
-    Each target's profile ``blend + 4 w (1 - w) keep(diff, beta)`` is scored against every one of its drops by
-    log-spectral distance, ST-SIM and SPQI, beside linear (the blend), and by RMSE against their mean and against
-    the representative (:func:`score`). A ``beta`` is admissible while it keeps :data:`KEEP_SHARE` of the gap
-    between linear and the drop means' sampling floor over every target (0 always is: where the method itself
-    falls short of the bar's share, no RMSE is given up for the spectral measures). Of the admissible, the one
-    taken passes the most of the bench's four criteria in expectation over :data:`BOOTSTRAP` resamples of the
-    targets (seeded): that share kept against the drop mean, and against the representative (floor: the mean of
-    the other drops), log-spectral distance no worse than linear's, ST-SIM and SPQI no worse than linear's (sums
-    over the targets, as the bench compares). The least ``beta`` breaks a tie. A ``beta`` that only just passes
-    on these targets is as likely as not to fail on others, which the expectation weighs.
+    Each target's profile ``blend + 4 w (1 - w) textured(diff, blend, beta, g)`` is scored against every one of its
+    drops by log-spectral distance, ST-SIM and SPQI, beside linear (the blend), and by RMSE against their mean and
+    against the representative (:func:`score`). A pair is admissible while it keeps :data:`KEEP_SHARE` of the gap
+    between linear and the drop means' sampling floor over every target (the first pair, least ``beta`` and ``g``,
+    always is: where the method itself falls short of the bar's share, no RMSE is given up for the spectral
+    measures). Of the admissible, the one taken passes the most of the bench's four criteria in expectation over
+    :data:`BOOTSTRAP` resamples of the targets (seeded): that share kept against the drop mean, and against the
+    representative (floor: the mean of the other drops), log-spectral distance no worse than linear's, ST-SIM and
+    SPQI no worse than linear's (sums over the targets, as the bench compares). The least ``beta``, then the least
+    ``g``, breaks a tie. A pair that only just passes on these targets is as likely as not to fail on others, which
+    the expectation weighs.
     """
-    folds, floors = score(targets)
+    pairs = [(float(b), float(g)) for b in sorted(betas) for g in sorted(fills)]
+    folds, floors = score(targets, pairs)
     if not len(floors):
-        return 0.0, {}
+        return pairs[0], {}
     lin = folds["linear"]
     idx = np.random.default_rng(0).integers(0, len(floors), size=(BOOTSTRAP, len(floors)))
     lin_boot, floor_boot = lin[idx].sum(axis=1), floors[idx].sum(axis=1)
@@ -94,22 +148,22 @@ def choose(targets: Iterable[Target]) -> tuple[float, dict]:
             passed = (np.sum(shares >= KEEP_SHARE, axis=1) + (got[:, 0] <= lin_boot[:, 0])
                       + ((got[:, 1] >= lin_boot[:, 1]) & (got[:, 2] >= lin_boot[:, 2])))
             m["expected_criteria"] = float(np.mean(passed))
-        means[str(b)] = m
-    admissible = [b for b in TEXTURES if b == 0.0 or means[str(b)]["share"] >= KEEP_SHARE]
-    best = max(round(means[str(b)]["expected_criteria"], 9) for b in admissible)
-    return next(b for b in admissible if round(means[str(b)]["expected_criteria"], 9) == best), means
+        means["linear" if b == "linear" else label(*b)] = m
+    admissible = [p for p in pairs if p == pairs[0] or means[label(*p)]["share"] >= KEEP_SHARE]
+    best = max(round(means[label(*p)]["expected_criteria"], 9) for p in admissible)
+    return next(p for p in admissible if round(means[label(*p)]["expected_criteria"], 9) == best), means
 
 
-def score(targets: Iterable[Target]) -> tuple[dict, np.ndarray]:
-    """Per row (``"linear"``, then each ``beta``) an array ``(targets, 5)`` of :data:`MEASURES`: log-spectral
-    distance, ST-SIM and SPQI against every drop (means over them), RMSE against their mean and against the
+def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) -> tuple[dict, np.ndarray]:
+    """Per row (``"linear"``, then each ``(beta, g)`` of ``pairs``) an array ``(targets, 5)`` of :data:`MEASURES`:
+    log-spectral distance, ST-SIM and SPQI against every drop (means over them), RMSE against their mean and against the
     representative; and the floors ``(targets, 2)``: the drop mean's sampling error, the other drops' mean against
     the representative. The measures are imported here: a fit needs them, an effect served from its table does
     not."""
     from ..processing.likeness import log_spectral_distance, mean_sampling_rmse, rmse
     from ..processing.perceptual import prepare, spqi, st_sim
 
-    rows: dict = {b: [] for b in ("linear", *TEXTURES)}
+    rows: dict = {b: [] for b in ("linear", *pairs)}
     floors = []
     for t in targets:
         refs = [prepare(d, rate_hz=t.rate_hz) for d in t.drops]
@@ -121,13 +175,13 @@ def score(targets: Iterable[Target]) -> tuple[dict, np.ndarray]:
                     float(rmse(pred, t.mean)), float(rmse(pred, t.rep)))
 
         rows["linear"].append(measured(t.blend))
-        for b in TEXTURES:
-            rows[b].append(measured(t.blend + bump(t.w) * keep(t.diff, b, t.rate_hz)))
+        for b, g in pairs:
+            rows[(b, g)].append(measured(t.blend + bump(t.w) * textured(t.diff, t.blend, b, g, t.rate_hz, at=t.at)))
         kept = int(np.argmin(np.sum((t.drops - t.rep) ** 2, axis=1)))  # the drop the bank keeps
         others = np.delete(t.drops, kept, axis=0)
         floors.append((mean_sampling_rmse(t.drops), float(rmse(others.mean(axis=0), t.rep)) if len(others) else np.nan))
     return {b: np.array(v) for b, v in rows.items()}, np.array(floors)
 
 
-__all__ = ["Target", "choose", "fine", "keep", "score", "BOOTSTRAP", "KEEP_SHARE", "MEASURES", "TEXTURE_HZ",
-           "TEXTURES"]
+__all__ = ["Target", "choose", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP", "FILLS",
+           "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]

@@ -45,6 +45,6 @@ def chosen_texture(setting, correction, validation: DropTriples) -> dict | None:
         return {"share": float(setting), "chosen_on": "fixed", "rate_hz": float(validation.rate_hz)}
     if not len(validation) or validation.reps is None or validation.rate_hz is None:
         return None
-    share, scores = choose(validation_targets(correction, validation))
+    (share, _), scores = choose(validation_targets(correction, validation))
     return {"share": float(share), "chosen_on": f"{len(validation)} validation triples",
             "rate_hz": float(validation.rate_hz), "scores": scores}
