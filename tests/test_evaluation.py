@@ -192,6 +192,18 @@ def test_a_method_that_cannot_run_is_reported_not_fatal(tiny_dataset):
     assert "error" in summary["methods"]["ensemble"]
 
 
+def test_a_rows_fill_is_reported_beside_its_texture_each_round(uneven, tmp_path):
+    cfg = tmp_path / "rows.yaml"
+    cfg.write_text("ew-fill: {interpolator: ensemble-warp, options: {fill: 0.5}}\n")
+    results = run_evaluation(uneven, "max-min", methods_from(["ew-fill"], cfg), repeats=5, echo=lambda m: None)
+    summary = summarise(results, boot=100)
+    assert summary["methods"]["ew-fill"]["fills"] == [0.5] * results["rounds"]
+    assert "fills" not in summary["methods"]["linear"]
+    run_time = markdown(results, summary).split("### Run time")[1].split("###")[0]
+    cells = next(line for line in run_time.splitlines() if line.startswith("| ew-fill |")).split(" | ")[3]
+    assert [c.split(" fill ")[1] for c in cells.split(", ")] == ["0.5"] * results["rounds"]
+
+
 def test_unknown_methods_and_config_keys_are_refused(tmp_path):
     with pytest.raises(EffectError, match="unknown method 'nope': no interpolator 'nope'"):
         methods_from(["nope"])

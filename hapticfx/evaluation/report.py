@@ -117,6 +117,8 @@ def summarise(results: dict, *, boot: int = 2000, seed: int = 0) -> dict:
             s["best_epochs"] = [f.get("best_epoch") for f in row["fits"]]
         if any("texture" in f for f in row["fits"]):  # the share of fine detail each round's fit chose or was given
             s["textures"] = [f.get("texture") for f in row["fits"]]
+        if any(f.get("fill") for f in row["fits"]):  # and the spectral fill on top of it (ensemble-warp's fill)
+            s["fills"] = [f.get("fill") or 0.0 for f in row["fits"]]
         out["methods"][name] = s
     for obj in dict.fromkeys(f["object"] for f in folds):
         per = {}
@@ -174,7 +176,8 @@ def markdown(results: dict, summary: dict) -> str:
         lat = s.get("latency_ms")
         tab = s.get("table_latency_ms")
         epochs = ", ".join(str(e) for e in s.get("best_epochs", [])) or "-"
-        textures = ", ".join(f"{t:g}" for t in s.get("textures", [])) or "-"
+        fills = s.get("fills", [0.0] * len(s.get("textures", [])))
+        textures = ", ".join(f"{t:g}" + (f" fill {g:g}" if g else "") for t, g in zip(s.get("textures", []), fills)) or "-"
         lines.append(f"| {m} | {s['fit_s']:.2f} | {epochs} | {textures} | "
                      + (f"{lat['median']:.4f} / {lat['p99']:.4f}" if lat else "-") + " | "
                      + (f"{tab['median']:.4f} / {tab['p99']:.4f}" if tab else "-") + " | "
