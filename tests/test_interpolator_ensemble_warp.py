@@ -105,7 +105,7 @@ def test_the_warp_is_chosen_where_the_bounce_moves_and_left_out_where_it_does_no
     assert moving.penalty_scores["brick"][chosen] < moving.penalty_scores["brick"][float("inf")]
     assert not np.isfinite(still.penalties["brick"])
     data = _data(0.0)  # no warp: the ensemble's blend of the (here shrunk) centres, number for number
-    warp = EnsembleWarpInterpolator(texture=0.0)  # (the texture is tested on its own below)
+    warp = EnsembleWarpInterpolator(texture=0.0, fill=0.0)  # (the texture and fill are tested on their own below)
     warp.fit(data)
     c = warp.fitted.centres["brick"]
     lo, hi = data.banks["brick"][1], data.banks["brick"][2]
@@ -342,7 +342,7 @@ def test_the_built_in_sets_shipped_table_is_what_a_fit_of_its_drops_chooses_now(
     ds = open_dataset("builtin:helmet-drops")
     shipped = VelocityTable.load(table_path(ds.path, reducer)).meta["source"]
     summary = Fit(training_data(ds, reducer)).summary()
-    assert shipped == {"trim": summary["trim"], "texture": summary["texture"], "fill": 0.0,
+    assert shipped == {"trim": summary["trim"], "texture": summary["texture"], "fill": "choose",
                        "penalty": summary["penalty"], "shrink": summary["shrink"], "smooth": summary["smooth"]}
 
 
@@ -350,9 +350,10 @@ def test_a_table_written_before_smoothing_was_offered_still_serves_and_describes
     from hapticfx.interpolators.fitted import describe
 
     data = _data(12.0)
-    table = tabulate(Fit(data))
+    table = tabulate(Fit(data, fill=0.0))
     del table.meta["source"]["smooth"]  # as a dataset written by an older hapticfx carries it
     del table.meta["source"]["texture"]
+    del table.meta["source"]["fill"], table.meta["fit"]["fill"]
     assert describe(table).endswith("0 smoothed, texture 0.0")
     warp = EnsembleWarpInterpolator()
     warp.table = table
@@ -381,10 +382,10 @@ def _ringing(velocities=(2.0, 2.4, 2.8, 3.2, 3.6, 4.0, 4.4), drops: int = 8, see
 def test_a_fixed_texture_gives_back_the_representatives_detail_in_proportion_and_the_table_serves_it():
     data = _ringing()
     bank = data.banks["bell"]
-    fits = {b: Fit(data, texture=b) for b in (0.0, 0.2, 0.4)}
+    fits = {b: Fit(data, texture=b, fill=0.0) for b in (0.0, 0.2, 0.4)}  # (the fill is tested on its own below)
     warps = {}
     for b, fit in fits.items():
-        warps[b] = EnsembleWarpInterpolator(texture=b)
+        warps[b] = EnsembleWarpInterpolator(texture=b, fill=0.0)
         warps[b].fitted = fit
         assert fit.texture == b and fit.summary()["texture"] == b
     for i in range(len(bank) - 1):
@@ -406,12 +407,12 @@ def test_a_fixed_texture_gives_back_the_representatives_detail_in_proportion_and
 
 
 def test_texture_is_chosen_where_the_drops_mean_loses_their_detail_and_not_where_it_keeps_it():
-    ringing = Fit(_ringing())
+    ringing = Fit(_ringing(), fill=0.0)
     chosen = ringing.texture_scores[str(ringing.texture)]
     assert ringing.texture > 0.0
     assert chosen["share"] >= KEEP_SHARE  # it keeps the bar's share of the gap to the drop mean's floor
     assert chosen["spqi"] > ringing.texture_scores["0.0"]["spqi"]
-    plain = Fit(_ringing(ring=0.0))  # no detail the mean loses: every texture predicts the same, the least is taken
+    plain = Fit(_ringing(ring=0.0), fill=0.0)  # no detail the mean loses: every texture predicts the same, the least is taken
     assert plain.texture == 0.0
 
 
@@ -492,8 +493,8 @@ def test_a_texture_out_of_range_is_refused_and_one_fixed_apart_from_the_shipped_
     assert model(texture=shipped)["served_from"]["table"] == str(table_path(ds.path, "max-min"))
     other = model(texture=0.8 if shipped != 0.8 else 0.6)
     assert other["served_from"]["table"] == "velocity table" and other["texture"] in (0.6, 0.8)
-    assert model(fill=0.0)["served_from"]["table"] == str(table_path(ds.path, "max-min"))  # the shipped: no fill
-    for fill in (0.5, "choose"):  # a table with a fill is fitted when the effect loads
+    assert model(fill="choose")["served_from"]["table"] == str(table_path(ds.path, "max-min"))  # as shipped
+    for fill in (0.0, 0.5):  # a fill fixed apart from the shipped table's choice: fitted when the effect loads
         assert model(fill=fill)["served_from"]["table"] == "velocity table"
     with pytest.raises(EffectError, match="texture"):
         model(texture=float("nan"))
@@ -501,7 +502,7 @@ def test_a_texture_out_of_range_is_refused_and_one_fixed_apart_from_the_shipped_
 
 def test_an_interval_the_table_cannot_follow_is_served_without_its_warp_and_the_fit_says_so():
     data = _data(12.0)
-    fit = Fit(data, texture=0.0)
+    fit = Fit(data, texture=0.0, fill=0.0)
     assert np.isfinite(fit.penalties["brick"])
     bank = data.banks["brick"]
     lo, hi = bank[1], bank[2]

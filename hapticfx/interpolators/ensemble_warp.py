@@ -54,13 +54,15 @@ A mean of drops that ring out of phase is duller above about 100 Hz than any
 recorded drop, and on the vibrotactile field's spectral measures it can score below
 linear's blend of two recorded drops, while it is nearest their mean in RMSE.
 ``beta`` trades the one for the other, chosen on the same left-out training
-velocities (:func:`texture_targets`). With the ``fill`` option the textured centre
-is also filled: each bin above 100 Hz quieter than ``g`` times the blend's raised
-to it in the centre's own phase, ``g`` fixed or chosen with ``beta`` from
-:data:`~hapticfx.interpolators.texture.FILLS` (``fill: choose``; 0, no fill, by
-default). Each interval is filled as at its middle (``at`` of
-:func:`~hapticfx.interpolators.texture.textured`), so that its table stays as
-small as without a fill.
+velocities (:func:`texture_targets`). With it, and by the same choice, a **fill**:
+the textured centre's bins above 100 Hz quieter than ``g`` times the blend's are
+raised to it in the centre's own phase, ``g`` from
+:data:`~hapticfx.interpolators.texture.FILLS` (0: none). The neighbours' detail
+has a phase unrelated to the centre's, so it costs RMSE for each dB of
+log-spectral distance it buys; the fill buys it more cheaply. Each interval is
+filled as at its middle (``at`` of :func:`~hapticfx.interpolators.texture.textured`),
+so that its table stays as small as without a fill. The option ``fill`` fixes
+``g`` instead (0: the form before the fill was offered).
 
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
@@ -307,7 +309,7 @@ class Fit:
     ``texture`` None: chosen; ``fill`` None: chosen with the texture, from :data:`FILLS`."""
 
     def __init__(self, data: TrainingData, *, trim: float | None = None, texture: float | None = None,
-                 fill: float | None = 0.0):
+                 fill: float | None = None):
         missing = [obj for obj in data.banks if obj not in data.drops]
         if missing:
             raise DatasetError(f"the {NAME} interpolator needs every recorded drop; dataset {data.dataset!r} keeps "
@@ -447,7 +449,7 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
 
 
 def fit_table(data: TrainingData, *, trim: float | None = None, texture: float | None = None,
-              fill: float | str = 0.0) -> VelocityTable:
+              fill: float | str = CHOOSE) -> VelocityTable:
     """The ensemble-warp's velocity table for every object of ``data`` (``trim`` and ``texture`` chosen where not
     given, ``fill`` where it is :data:`CHOOSE`). Its source records the fill as asked: a number, or
     :data:`CHOOSE` (what was chosen is in its fit's summary)."""
@@ -458,7 +460,7 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
     """The ensemble with its neighbours' drop centres aligned in time before they blend (see the module docs).
     Options as ``ensemble``'s (``table``, ``trim``), ``texture`` (fix the share of the representatives' fine
     detail kept, 0 to 1, instead of the fitted one; the table is then fitted when the effect loads) and ``fill``
-    (0, the default: none; a number below 1 fixes ``g``; ``choose``: chosen with the texture).
+    (``choose``, the default: chosen with the texture; a number from 0 to 1 fixes ``g``, 0: no fill).
 
     After :meth:`fit` (an evaluation) it answers directly from what it fitted; an effect serves it from its
     table (the dataset's ``tables/ensemble-warp-<reducer>.table.npz``, or tabulated when the effect loads).
@@ -471,7 +473,7 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
     table_path = staticmethod(table_path)
 
     def __init__(self, *, table=None, trim: float | None = None, texture: float | None = None,
-                 fill: float | str = 0.0):
+                 fill: float | str = CHOOSE):
         super().__init__(table=table, trim=trim)
         self.texture = None if texture is None else valid_number(texture, name="interpolator_options.texture",
                                                                  minimum=0.0, maximum=1.0)
