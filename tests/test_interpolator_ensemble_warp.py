@@ -412,7 +412,7 @@ def test_texture_is_chosen_where_the_drops_mean_loses_their_detail_and_not_where
     assert ringing.texture > 0.0
     assert chosen["share"] >= KEEP_SHARE  # it keeps the bar's share of the gap to the drop mean's floor
     assert chosen["spqi"] > ringing.texture_scores["0.0"]["spqi"]
-    plain = Fit(_ringing(ring=0.0), fill=0.0)  # no detail the mean loses: every texture predicts the same, the least is taken
+    plain = Fit(_ringing(ring=0.0), fill=0.0)  # no detail the mean loses: every texture the same, the least taken
     assert plain.texture == 0.0
 
 

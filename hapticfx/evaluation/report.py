@@ -177,7 +177,8 @@ def markdown(results: dict, summary: dict) -> str:
         tab = s.get("table_latency_ms")
         epochs = ", ".join(str(e) for e in s.get("best_epochs", [])) or "-"
         fills = s.get("fills", [0.0] * len(s.get("textures", [])))
-        textures = ", ".join(f"{t:g}" + (f" fill {g:g}" if g else "") for t, g in zip(s.get("textures", []), fills)) or "-"
+        textures = ", ".join(f"{t:g}" + (f" fill {g:g}" if g else "")
+                             for t, g in zip(s.get("textures", []), fills)) or "-"
         lines.append(f"| {m} | {s['fit_s']:.2f} | {epochs} | {textures} | "
                      + (f"{lat['median']:.4f} / {lat['p99']:.4f}" if lat else "-") + " | "
                      + (f"{tab['median']:.4f} / {tab['p99']:.4f}" if tab else "-") + " | "
