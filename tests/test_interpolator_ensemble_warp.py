@@ -425,8 +425,7 @@ def test_a_fill_raises_the_centres_quiet_bins_as_at_each_intervals_middle_and_th
     for name, fit in (("plain", plain), ("filled", filled)):
         warps[name] = EnsembleWarpInterpolator(texture=0.2)
         warps[name].fitted = fit
-    from scipy.signal import stft
-
+    f = np.fft.rfftfreq(N, 1e-3)
     for i in range(len(bank) - 1):
         lo, hi = bank[i], bank[i + 1]
         mid = 0.5 * (lo.samples + hi.samples)
@@ -437,15 +436,10 @@ def test_a_fill_raises_the_centres_quiet_bins_as_at_each_intervals_middle_and_th
             got = warps["filled"].interpolate(lo, hi, x) - warps["plain"].interpolate(lo, hi, x)
             assert np.allclose(got, bump(w) * added, rtol=0, atol=1e-12)  # the middle's fill, drawn in by the bump
         assert np.array_equal(warps["filled"].interpolate(lo, hi, float(lo.velocity)), lo.samples)
-        # at the middle the short-time bins above 100 Hz quieter than half the blend's are raised near it
-        middle = float(0.5 * (lo.velocity + hi.velocity))
-        kw = {"fs": 1000.0, "nperseg": 64, "noverlap": 48}
-        freqs, _, blend_stft = stft(mid, **kw)
-        before, after = (np.abs(stft(warps[k].interpolate(lo, hi, middle), **kw)[2]) for k in ("plain", "filled"))
-        quiet = (freqs > TEXTURE_HZ)[:, None] & (before < 0.5 * np.abs(blend_stft)) & (np.abs(blend_stft) > 1e-3)
-        assert quiet.sum() > 10
-        ratio = {k: np.median(x[quiet] / np.abs(blend_stft)[quiet]) for k, x in (("before", before), ("after", after))}
-        assert ratio["after"] > 0.4 > ratio["before"], ratio
+        # at the middle no bin of the centre above 100 Hz is quieter than half the blend's
+        centre = np.fft.rfft(warps["filled"].interpolate(lo, hi, float(0.5 * (lo.velocity + hi.velocity))))
+        above = f > TEXTURE_HZ
+        assert np.all(np.abs(centre[above]) >= 0.5 * np.abs(np.fft.rfft(mid))[above] - 1e-9)
     table, unfilled = tabulate(filled), tabulate(plain)
     assert table.n_nodes == unfilled.n_nodes and table.meta["source"]["fill"] == 0.5
     table.attach(bank, rebuild="(test)")

@@ -62,32 +62,20 @@ def test_the_choice_keeps_detail_the_centre_lost_and_none_where_there_is_none():
     assert choose([]) == ((0.0, 0.0), {})
 
 
-def test_fill_raises_the_quiet_short_time_bins_above_100_hz_in_their_own_phase_where_the_reference_rings():
-    from scipy.signal import stft
-
-    t = np.arange(500) / 1000.0
-    ring = np.sin(2 * np.pi * 230 * t) * np.exp(-t / 0.03)  # the reference rings at 230 Hz for the first ~100 ms
-    pulse = np.where(t < 0.0125, np.sin(np.pi * t / 0.0125), 0.0)
-    x = pulse + 0.1 * np.sin(2 * np.pi * 230 * t + 1.0) * np.exp(-t / 0.03)  # a tenth of it, in another phase
-    y = fill(x, ring, 0.5, 1000.0)
-    added = y - x
-    kw = {"fs": 1000.0, "nperseg": 64, "noverlap": 48}
-    f, frames, X = stft(x, **kw)
-    Y, R = stft(y, **kw)[2], stft(ring, **kw)[2]
-    k = int(np.argmin(np.abs(f - 234.0)))  # the ring's bin
-    early = frames <= 0.05
-    assert np.all(np.abs(Y[k, early]) >= 0.4 * np.abs(R[k, early]))  # raised toward half the reference's
-    assert np.all(np.abs(X[k, early]) < 0.2 * np.abs(R[k, early]))    # (from a tenth)
-    phase = np.angle(Y[k, early] * np.conj(X[k, early]))
-    assert np.all(np.abs(phase) < 0.3)  # in x's own phase
-    # where the reference has it: nothing added after it has rung out, nothing below 100 Hz
-    assert np.sqrt(np.mean(added[300:] ** 2)) < 1e-3 * np.sqrt(np.mean(added[:100] ** 2))
-    spectrum, freqs = np.abs(np.fft.rfft(added, 2000)) ** 2, np.fft.rfftfreq(2000, 1e-3)
-    assert spectrum[freqs < 80].sum() < 0.01 * spectrum.sum()
-    np.testing.assert_array_equal(fill(x, ring, 0.0, 1000.0), x)
-    assert np.all(np.isfinite(fill(np.zeros(500), ring, 0.5, 1000.0)))  # silent: the reference's phase
-    assert np.abs(fill(np.zeros(500), ring, 0.5, 1000.0)).max() > 0.1
-    np.testing.assert_allclose(fill(np.stack([x, x]), ring, 0.5, 1000.0)[1], y, atol=1e-12)  # row by row
+def test_fill_raises_only_the_quiet_bins_above_100_hz_and_keeps_their_phase():
+    rng = np.random.default_rng(3)
+    x, ref = rng.standard_normal((2, 500)), rng.standard_normal(500)
+    f = np.fft.rfftfreq(500, 1.0 / 1000.0)
+    X, Y, R = np.fft.rfft(x), np.fft.rfft(fill(x, ref, 0.5, 1000.0)), np.fft.rfft(ref)
+    above = f > 100.0
+    np.testing.assert_allclose(np.abs(Y[:, above]), np.maximum(np.abs(X[:, above]), 0.5 * np.abs(R[above])), rtol=1e-9)
+    np.testing.assert_allclose(Y[:, ~above], X[:, ~above], rtol=1e-9, atol=1e-9)
+    raised = above & (np.abs(X) < 0.5 * np.abs(R))
+    assert raised.sum() > 10  # the case is not empty
+    np.testing.assert_allclose(np.angle(Y[raised]), np.angle(X[raised]), atol=1e-9)
+    np.testing.assert_allclose(fill(x, ref, 0.0, 1000.0), x, atol=1e-12)
+    # a silent profile takes the reference's phase: above 100 Hz it becomes g times the reference there
+    np.testing.assert_allclose(np.fft.rfft(fill(np.zeros(500), ref, 0.5, 1000.0))[above], 0.5 * R[above], atol=1e-9)
 
 
 def test_textured_keeps_then_fills_the_centre_and_is_keep_without_a_fill():

@@ -18,8 +18,8 @@ either in quadrature (its detail comes from the neighbours, independent of the t
 follow as the bench computes them, from means over the folds. Point estimates, no intervals.
 
 With ``fills``, each share is also scored with a spectral fill on top
-(:func:`~hapticfx.interpolators.texture.fill`): the textured centre's phase kept, every short-time bin above 100 Hz
-whose magnitude is below ``g`` times the blend's raised to it. Added in phase with the centre, it buys more log-spectral
+(:func:`~hapticfx.interpolators.texture.fill`): the textured centre's phase kept, every bin above 100 Hz whose
+magnitude is below ``g`` times the blend's raised to it. Added in phase with the centre, it buys more log-spectral
 distance per unit of RMSE than the neighbours' detail, whose phase is unrelated to the centre's; its cost is the
 RMS of what it and the texture add to each left-out centre. ``ensemble-warp`` fills the same way when its ``fill``
 option asks it to, each interval as at its middle.

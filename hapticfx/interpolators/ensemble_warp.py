@@ -55,7 +55,7 @@ recorded drop, and on the vibrotactile field's spectral measures it can score be
 linear's blend of two recorded drops, while it is nearest their mean in RMSE.
 ``beta`` trades the one for the other, chosen on the same left-out training
 velocities (:func:`texture_targets`). With it, and by the same choice, a **fill**:
-the textured centre's short-time bins above 100 Hz quieter than ``g`` times the blend's are
+the textured centre's bins above 100 Hz quieter than ``g`` times the blend's are
 raised to it in the centre's own phase, ``g`` from
 :data:`~hapticfx.interpolators.texture.FILLS` (0: none). The neighbours' detail
 has a phase unrelated to the centre's, so it costs RMSE for each dB of

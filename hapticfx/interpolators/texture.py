@@ -13,9 +13,9 @@ drop). Keeping a share ``beta`` of the representatives' content above
 
 The neighbours' detail has a phase unrelated to the centre's, so it costs RMSE for
 every dB of log-spectral distance it buys. A spectral **fill** buys it more cheaply:
-each short-time bin of the textured centre above :data:`TEXTURE_HZ` whose magnitude is
-below ``g`` times the blend's is raised to it in the centre's own phase (:func:`fill`;
-``g`` from :data:`FILLS`, 0: none). Both act on the centre; the profile is drawn toward it
+each DFT bin of the textured centre above :data:`TEXTURE_HZ` whose magnitude is below
+``g`` times the blend's is raised to it in the centre's own phase (:func:`fill`; ``g``
+from :data:`FILLS`, 0: none). Both act on the centre; the profile is drawn toward it
 as before (:func:`textured`), so a recorded neighbour still comes back at its own
 velocity. A method served from a table fills each interval as at its middle
 (``at`` of :func:`textured`).
@@ -38,7 +38,6 @@ from .residual import bump
 TEXTURE_HZ = 100.0
 TEXTURES = (0.0, 0.2, 0.4, 0.6, 0.8)
 FILLS = (0.0, 0.25, 0.5, 0.75)
-FILL_FRAME_S = 0.064  # the fill's short-time frames
 KEEP_SHARE = 0.6  # of the gap between linear and a floor: the bar of the bench's generalisation protocol
 BOOTSTRAP = 500  # resamples of the left-out targets
 MEASURES = ("lsd", "stsim", "spqi", "rmse_mean", "rmse_rep")
@@ -60,26 +59,17 @@ def keep(diff: np.ndarray, beta: float, rate_hz: float) -> np.ndarray:
 
 
 def fill(x: np.ndarray, reference: np.ndarray, g: float, rate_hz: float) -> np.ndarray:
-    """``x`` ``(..., N)`` with each short-time bin above :data:`TEXTURE_HZ` whose magnitude is below ``g`` times the
-    reference's raised to it, its phase kept (a silent bin takes the reference's); the bins below, and every bin
-    at ``g = 0``, unchanged. Frames of :data:`FILL_FRAME_S`, Hann, hop a quarter (scipy's STFT; what is added is
-    overlap-added back). Short-time, so that what it adds lies where the reference has it: a fill of the whole
-    profile's spectrum spreads each raised bin over the profile, into a tail where the drops are silent and
-    which short-time measures (ST-SIM, SPQI) score on its own."""
+    """``x`` ``(..., N)`` with each DFT bin above :data:`TEXTURE_HZ` whose magnitude is below ``g |reference|``
+    raised to it, its phase kept (a silent bin takes the reference's); the bins below, and every bin at ``g = 0``,
+    unchanged."""
     if not g:
         return x
-    from scipy.signal import istft, stft
-
     n = x.shape[-1]
-    frame = min(n, max(8, int(round(FILL_FRAME_S * rate_hz))))
-    kw = {"fs": rate_hz, "nperseg": frame, "noverlap": frame - frame // 4}
-    f, _, spectrum = stft(x, axis=-1, **kw)
-    ref = stft(reference, axis=-1, **kw)[2]
+    spectrum, ref = np.fft.rfft(x, axis=-1), np.fft.rfft(reference, axis=-1)
     have, want = np.abs(spectrum), g * np.abs(ref)
-    low = (f > TEXTURE_HZ)[:, None] & (have < want)
+    low = (np.fft.rfftfreq(n, 1.0 / rate_hz) > TEXTURE_HZ) & (have < want)
     phase = np.where(have > 0, spectrum / np.where(have > 0, have, 1.0), np.exp(1j * np.angle(ref)))
-    added = istft(np.where(low, want * phase - spectrum, 0.0), time_axis=-1, freq_axis=-2, **kw)[1]
-    return x + added[..., :n]
+    return np.fft.irfft(np.where(low, want * phase, spectrum), n, axis=-1)
 
 
 def filling(blend: np.ndarray, diff: np.ndarray, beta: float, g: float, rate_hz: float) -> np.ndarray:
@@ -194,4 +184,4 @@ def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) ->
 
 
 __all__ = ["Target", "choose", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP", "FILLS",
-           "FILL_FRAME_S", "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]
+           "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]
