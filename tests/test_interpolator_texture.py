@@ -62,20 +62,29 @@ def test_the_choice_keeps_detail_the_centre_lost_and_none_where_there_is_none():
     assert choose([]) == ((0.0, 0.0), {})
 
 
-def test_fill_raises_only_the_quiet_bins_above_100_hz_and_keeps_their_phase():
-    rng = np.random.default_rng(3)
-    x, ref = rng.standard_normal((2, 500)), rng.standard_normal(500)
-    f = np.fft.rfftfreq(500, 1.0 / 1000.0)
-    X, Y, R = np.fft.rfft(x), np.fft.rfft(fill(x, ref, 0.5, 1000.0)), np.fft.rfft(ref)
-    above = f > 100.0
-    np.testing.assert_allclose(np.abs(Y[:, above]), np.maximum(np.abs(X[:, above]), 0.5 * np.abs(R[above])), rtol=1e-9)
-    np.testing.assert_allclose(Y[:, ~above], X[:, ~above], rtol=1e-9, atol=1e-9)
-    raised = above & (np.abs(X) < 0.5 * np.abs(R))
-    assert raised.sum() > 10  # the case is not empty
-    np.testing.assert_allclose(np.angle(Y[raised]), np.angle(X[raised]), atol=1e-9)
-    np.testing.assert_allclose(fill(x, ref, 0.0, 1000.0), x, atol=1e-12)
-    # a silent profile takes the reference's phase: above 100 Hz it becomes g times the reference there
-    np.testing.assert_allclose(np.fft.rfft(fill(np.zeros(500), ref, 0.5, 1000.0))[above], 0.5 * R[above], atol=1e-9)
+def test_fill_raises_the_quiet_bins_above_100_hz_and_moves_what_it_adds_to_where_the_reference_rings():
+    t = np.arange(500) / 1000.0
+    ring = np.sin(2 * np.pi * 230 * t) * np.exp(-t / 0.03)  # the reference rings at 230 Hz for the first ~100 ms
+    pulse = np.where(t < 0.0125, np.sin(np.pi * t / 0.0125), 0.0)
+    x = pulse + 0.1 * np.sin(2 * np.pi * 230 * t + 1.0) * np.exp(-t / 0.03)  # a tenth of it, in another phase
+    added = fill(x, ring, 0.5, 1000.0) - x
+    # what the bins raised in x's phase add, before it is moved: its energy is kept
+    X, R = np.fft.rfft(x), np.fft.rfft(ring)
+    low = (np.fft.rfftfreq(500, 1e-3) > 100.0) & (np.abs(X) < 0.5 * np.abs(R))
+    assert low.sum() > 10  # the case is not empty
+    raised = np.fft.irfft(np.where(low, 0.5 * np.abs(R) * X / np.abs(X) - X, 0.0), 500)
+    np.testing.assert_allclose(np.sum(added ** 2), np.sum(raised ** 2), rtol=1e-9)
+    assert np.sum(raised[300:] ** 2) > 0.005 * np.sum(raised ** 2)  # left where it fell, some reaches the tail
+    assert np.sum(added[300:] ** 2) < 1e-6 * np.sum(added ** 2)  # moved: none does
+    spectrum, freqs = np.abs(np.fft.rfft(added, 2000)) ** 2, np.fft.rfftfreq(2000, 1e-3)
+    assert spectrum[freqs < 80].sum() < 0.01 * spectrum.sum()  # nothing below 100 Hz to speak of
+    near = spectrum[(freqs > 200) & (freqs < 260)].sum()
+    assert near > 0.8 * spectrum.sum()  # the ring's band, where x was quiet
+    np.testing.assert_array_equal(fill(x, ring, 0.0, 1000.0), x)
+    silent = fill(np.zeros(500), ring, 0.5, 1000.0)  # a silent x takes the reference's phase
+    assert np.all(np.isfinite(silent)) and np.abs(silent).max() > 0.01
+    np.testing.assert_array_equal(fill(x, np.zeros(500), 0.5, 1000.0), x)  # a silent reference: nothing to raise
+    np.testing.assert_allclose(fill(np.stack([x, x]), ring, 0.5, 1000.0)[1], x + added, atol=1e-12)  # row by row
 
 
 def test_textured_keeps_then_fills_the_centre_and_is_keep_without_a_fill():

@@ -14,8 +14,9 @@ drop). Keeping a share ``beta`` of the representatives' content above
 The neighbours' detail has a phase unrelated to the centre's, so it costs RMSE for
 every dB of log-spectral distance it buys. A spectral **fill** buys it more cheaply:
 each DFT bin of the textured centre above :data:`TEXTURE_HZ` whose magnitude is below
-``g`` times the blend's is raised to it in the centre's own phase (:func:`fill`; ``g``
-from :data:`FILLS`, 0: none). Both act on the centre; the profile is drawn toward it
+``g`` times the blend's is raised to it in the centre's own phase, and what that adds
+is moved in time to where the blend's fine detail is (:func:`fill`; ``g`` from
+:data:`FILLS`, 0: none). Both act on the centre; the profile is drawn toward it
 as before (:func:`textured`), so a recorded neighbour still comes back at its own
 velocity. A method served from a table fills each interval as at its middle
 (``at`` of :func:`textured`).
@@ -38,6 +39,7 @@ from .residual import bump
 TEXTURE_HZ = 100.0
 TEXTURES = (0.0, 0.2, 0.4, 0.6, 0.8)
 FILLS = (0.0, 0.25, 0.5, 0.75)
+FILL_FRAME_S = 0.064  # the window of the envelope a fill follows
 KEEP_SHARE = 0.6  # of the gap between linear and a floor: the bar of the bench's generalisation protocol
 BOOTSTRAP = 500  # resamples of the left-out targets
 MEASURES = ("lsd", "stsim", "spqi", "rmse_mean", "rmse_rep")
@@ -60,8 +62,10 @@ def keep(diff: np.ndarray, beta: float, rate_hz: float) -> np.ndarray:
 
 def fill(x: np.ndarray, reference: np.ndarray, g: float, rate_hz: float) -> np.ndarray:
     """``x`` ``(..., N)`` with each DFT bin above :data:`TEXTURE_HZ` whose magnitude is below ``g |reference|``
-    raised to it, its phase kept (a silent bin takes the reference's); the bins below, and every bin at ``g = 0``,
-    unchanged."""
+    raised to it, its phase kept (a silent bin takes the reference's), and what that adds moved in time to where
+    the reference's fine detail is (:func:`envelope`), its energy kept; the bins below, and everything at
+    ``g = 0``, unchanged. A raised bin spans the whole profile: left where it falls, its energy would reach a
+    tail where the drops are silent, which short-time measures (ST-SIM, SPQI) score on its own."""
     if not g:
         return x
     n = x.shape[-1]
@@ -69,7 +73,22 @@ def fill(x: np.ndarray, reference: np.ndarray, g: float, rate_hz: float) -> np.n
     have, want = np.abs(spectrum), g * np.abs(ref)
     low = (np.fft.rfftfreq(n, 1.0 / rate_hz) > TEXTURE_HZ) & (have < want)
     phase = np.where(have > 0, spectrum / np.where(have > 0, have, 1.0), np.exp(1j * np.angle(ref)))
-    return np.fft.irfft(np.where(low, want * phase, spectrum), n, axis=-1)
+    added = np.fft.irfft(np.where(low, want * phase - spectrum, 0.0), n, axis=-1)
+    moved = added * envelope(reference, rate_hz)
+    energy = np.sum(added ** 2, axis=-1, keepdims=True)
+    kept = np.sum(moved ** 2, axis=-1, keepdims=True)
+    return x + moved * np.sqrt(np.divide(energy, kept, out=np.zeros_like(kept), where=kept > 0))
+
+
+def envelope(x: np.ndarray, rate_hz: float) -> np.ndarray:
+    """The RMS of ``x``'s fine detail (:func:`fine`) over :data:`FILL_FRAME_S` (Hann-weighted) at each sample."""
+    from scipy.signal import fftconvolve
+
+    frame = max(3, int(round(FILL_FRAME_S * rate_hz)))
+    window = np.hanning(frame + 2)[1:-1]
+    power = fftconvolve(fine(x, rate_hz) ** 2, np.reshape(window / window.sum(), (1,) * (np.ndim(x) - 1) + (-1,)),
+                        mode="same", axes=-1)
+    return np.sqrt(np.maximum(power, 0.0))
 
 
 def filling(blend: np.ndarray, diff: np.ndarray, beta: float, g: float, rate_hz: float) -> np.ndarray:
@@ -183,5 +202,5 @@ def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) ->
     return {b: np.array(v) for b, v in rows.items()}, np.array(floors)
 
 
-__all__ = ["Target", "choose", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP", "FILLS",
-           "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]
+__all__ = ["Target", "choose", "envelope", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP", "FILLS",
+           "FILL_FRAME_S", "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]
