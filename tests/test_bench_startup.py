@@ -11,7 +11,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 def test_startup_table_names_floors_baseline_and_heavy_imports(tmp_path):
     torchy = tmp_path / "direct.yaml"
-    torchy.write_text((REPO / "effects" / "falling_brick.yaml").read_text().replace(
+    torchy.write_text((REPO / "effects" / "falling_brick_convbilstm.yaml").read_text().replace(
         "interpolator: convbilstm", "interpolator: convbilstm\n  interpolator_options: {cache: false}"))
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "startup", "effects/falling_brick.yaml",
                         str(torchy), "--repeats", "3"], cwd=REPO, capture_output=True, text=True, timeout=600)

@@ -3,8 +3,9 @@ whose model and interpolator are the core's.
 
 The sound-card actuators' specs live in the core (hapticfx.actuators.known); only playing on a sound card needs
 hapticfx-soundcard, and ``play`` then says what to install and writes the impact to files, as on a machine with
-no sound device. The default falling effects use the ConvBiLSTM, whose table ships with hapticfx-neural
-(``scripts/install.sh`` installs it, without torch); without that plugin they say so in one line.
+no sound device. The default falling effects use ensemble-warp and render with the core alone; the
+ConvBiLSTM's (``falling_*_convbilstm.yaml``), whose table ships with hapticfx-neural (``scripts/install.sh``
+installs it, without torch), say in one line without that plugin what to install.
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-BRICK = ROOT / "effects" / "falling_brick_ensemble_warp.yaml"
-DEFAULT_BRICK = ROOT / "effects" / "falling_brick.yaml"
+BRICK = ROOT / "effects" / "falling_brick.yaml"
+NETWORK_BRICK = ROOT / "effects" / "falling_brick_convbilstm.yaml"
 
 
 def hapticfx(*args, cwd, plugins=""):
@@ -49,11 +50,11 @@ def test_the_core_alone_exports_validates_and_plays_a_haptic_file_to_files(tmp_p
     assert sorted(p.suffix for p in tmp_path.glob("hapticfx-*")) == [".png", ".wav"]
 
 
-def test_the_default_effect_without_the_neural_plugin_is_one_line_and_writes_nothing(tmp_path):
-    r = hapticfx("render", DEFAULT_BRICK, "--out", "x.wav", cwd=tmp_path)
+def test_the_network_effect_without_the_neural_plugin_is_one_line_and_writes_nothing(tmp_path):
+    r = hapticfx("render", NETWORK_BRICK, "--out", "x.wav", cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
     assert r.stderr.strip().splitlines() == [
-        f"hapticfx: error: {DEFAULT_BRICK}: model.interpolator: unknown interpolator 'convbilstm'; it comes with "
+        f"hapticfx: error: {NETWORK_BRICK}: model.interpolator: unknown interpolator 'convbilstm'; it comes with "
         f"hapticfx-neural: pip install {ROOT / 'plugins' / 'hapticfx-neural'}; installed: ensemble, ensemble-warp, "
         "linear"]
     assert not list(tmp_path.iterdir())

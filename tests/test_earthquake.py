@@ -112,15 +112,15 @@ def test_demo_bad_record_is_one_line_error(tmp_path):
     assert "Traceback" not in proc.stderr
 
 
-def test_without_the_neural_plugin_the_demo_plays_the_ensemble_warp_room_and_says_why(tmp_path):
-    """The default room's effects need hapticfx-neural's ConvBiLSTM table; the core alone falls back a scene."""
+def test_without_the_neural_plugin_the_demo_plays_the_default_room(tmp_path):
+    """The default room's effects (ensemble-warp) need the core alone: no plugin, no fallback."""
     proc = subprocess.run([sys.executable, str(DEMO / "earthquake.py"), "--out", str(tmp_path), "--synthetic",
                            "--duration", "1", "--quiet"], capture_output=True, text=True, timeout=300, cwd=ROOT,
                           env={**os.environ, "HAPTICFX_PLUGINS": ""})
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "events.json").read_text())
-    assert Path(summary["scene"]).name == "earthquake_room_ensemble_warp.yaml"
-    assert any(n.startswith("earthquake_room.yaml unavailable") and "hapticfx-neural" in n for n in summary["notes"])
+    assert Path(summary["scene"]).name == "earthquake_room.yaml"
+    assert not any("unavailable" in n for n in summary["notes"])
 
 
 @pytest.mark.slow

@@ -49,11 +49,12 @@ def test_play_linear_data_driven_does_not_import_torch(tmp_path, tiny_dataset):
 
 
 def test_playing_the_shipped_data_driven_effects_imports_no_torch(tmp_path):
-    """The main command's effect (the paper's ConvBiLSTM, served from its velocity table) and ensemble-warp's."""
+    """The main command's effect (ensemble-warp, served from its table) and the paper's ConvBiLSTM's (from its
+    velocity table)."""
     from pathlib import Path
 
     effects = Path(__file__).resolve().parents[1] / "effects"
-    for name in ("falling_brick.yaml", "falling_brick_ensemble_warp.yaml"):
+    for name in ("falling_brick.yaml", "falling_brick_convbilstm.yaml"):
         mods = _modules_after(f"""
             from hapticfx.cli import main
             try:

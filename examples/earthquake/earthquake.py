@@ -4,9 +4,9 @@
 
 MuJoCo simulates the room (see room.py); every head contact goes, as it
 happens, to a :class:`hapticfx.Engine` built from the scene file
-(scenes/earthquake_room.yaml: data-driven effects with the paper's ConvBiLSTM;
-``--scene scenes/earthquake_room_ensemble_warp.yaml`` for the ensemble-warp
-interpolator, ``--scene scenes/earthquake_room_linear.yaml`` for the linear
+(scenes/earthquake_room.yaml: data-driven effects with the ensemble-warp
+interpolator; ``--scene scenes/earthquake_room_convbilstm.yaml`` for the paper's
+ConvBiLSTM, ``--scene scenes/earthquake_room_linear.yaml`` for the linear
 average, ``--scene scenes/earthquake_room_kinetic.yaml`` for the
 kinetic-energy baseline). Writes to ``--out``:
 
@@ -40,9 +40,9 @@ from hapticfx.groundmotion import BUILTIN_RECORDS, builtin_record, read_at2, syn
 from hapticfx.scene import load_scene  # noqa: E402
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
-# Without --scene: the data-driven effects (the ConvBiLSTM's; ensemble-warp's without hapticfx-neural); without
-# the built-in dataset (or its drops), the kinetic-energy baseline.
-DEFAULT_SCENES = [SCENES / f"earthquake_room{suffix}.yaml" for suffix in ("", "_ensemble_warp", "_kinetic")]
+# Without --scene: the data-driven effects (ensemble-warp's, the core alone); without the built-in dataset (or
+# its drops), the kinetic-energy baseline.
+DEFAULT_SCENES = [SCENES / f"earthquake_room{suffix}.yaml" for suffix in ("", "_kinetic")]
 
 app = typer.Typer(add_completion=False, help=__doc__.split("\n\n")[0])
 
@@ -186,7 +186,7 @@ def main(
     seed: int = typer.Option(0, metavar="SEED", help="Seed of the synthetic ground motion."),
     pga: float = typer.Option(None, metavar="G", help="Scale the ground motion to this peak ground acceleration (g)."),
     duration: float = typer.Option(60.0, metavar="SECONDS", min=1.0, max=600.0, help="Seconds of shaking to simulate (the paper: 60)."),
-    scene: Path = typer.Option(None, metavar="SCENE", help="Scene file (default: the data-driven earthquake_room.yaml; the ensemble-warp one without hapticfx-neural; the kinetic one if the data is missing)."),
+    scene: Path = typer.Option(None, metavar="SCENE", help="Scene file (default: the data-driven earthquake_room.yaml; the kinetic one if the data is missing)."),
     min_velocity: float = typer.Option(0.3, metavar="M/S", min=0.0, help="Slowest approach (m/s) that counts as an impact."),
     quiet: bool = typer.Option(False, help="No progress output."),
 ):

@@ -93,11 +93,11 @@ def render(
 
         from ..effect import load_effect
 
-        e = load_effect(Path("effects/falling_brick.yaml"))
+        e = load_effect(Path("effects/falling_brick_convbilstm.yaml"))
         e = dataclasses.replace(e, model=dataclasses.replace(
             e.model, options={**e.model.options, "interpolator_options": {"cache": False}}))
         try:
-            pipelines["effects/falling_brick.yaml, cache: false"] = Pipeline(e, device="memory")
+            pipelines["effects/falling_brick_convbilstm.yaml, cache: false"] = Pipeline(e, device="memory")
         except HapticfxError as exc:
             typer.echo(f"skipped direct ConvBiLSTM inference: {exc}", err=True)
     # A fresh velocity for every render (no per-velocity cache can answer it); effects take turns, so a change

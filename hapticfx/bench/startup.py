@@ -26,7 +26,7 @@ atexit.register(lambda: print("HAPTICFX-PROBE " + json.dumps([m for m in heavy i
 sys.argv = ["hapticfx", *sys.argv[1:]]
 runpy.run_module("hapticfx", run_name="__main__", alter_sys=True)
 """.format(heavy=HEAVY)
-DEFAULT_EFFECTS = ("effects/falling_brick.yaml", "effects/falling_brick_ensemble_warp.yaml",
+DEFAULT_EFFECTS = ("effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml",
                    "effects/falling_brick_linear.yaml", "effects/falling_brick_kinetic.yaml")
 
 

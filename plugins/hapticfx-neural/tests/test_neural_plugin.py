@@ -241,7 +241,7 @@ def test_weights_without_safetensors_are_one_line_naming_the_install_command(tmp
     import yaml
 
     repo = Path(__file__).resolve().parents[3]
-    effect = yaml.safe_load((repo / "effects" / "falling_brick.yaml").read_text())
+    effect = yaml.safe_load((repo / "effects" / "falling_brick_convbilstm.yaml").read_text())
     effect["model"]["interpolator_options"] = {**effect["model"].get("interpolator_options", {}), "cache": False}
     path = tmp_path / "direct.yaml"
     path.write_text(yaml.safe_dump(effect))

@@ -52,7 +52,7 @@ def _row(label: str, values_s, floor=None) -> str:
 
 
 DEFAULT_EFFECTS = ("effects/falling_brick_kinetic.yaml", "effects/falling_brick_linear.yaml",
-                   "effects/falling_brick.yaml", "effects/falling_brick_ensemble_warp.yaml")
+                   "effects/falling_brick.yaml", "effects/falling_brick_convbilstm.yaml")
 STALL_S = 0.005  # a machine stall this long can empty a 'low' buffer that is already half played
 # The first callback after a stall reports its underflow: 0.7-17.7 ms after it ended in docs/benchmarks.md.
 STALL_WINDOW_S = 0.02
