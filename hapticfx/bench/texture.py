@@ -17,9 +17,10 @@ def texture(
                                               "heldout:heldout-even-height); each gets its own table."),
     reducer: str = typer.Option("max-min", "--reducer", metavar="NAME", help="Which bank of each dataset."),
     fills: List[float] = typer.Option([], "--fill", metavar="G", min=0.0, max=1.0,
-                                      help="Also score each share with a spectral fill on top: every bin above "
-                                           "100 Hz raised to G times linear's magnitude where lower, in phase "
-                                           "(repeat for several; a lead, not a method: docs/neural.md)."),
+                                      help="Also score each share with a spectral fill on top, as ensemble-warp "
+                                           "fills: every bin above 100 Hz raised to G times linear's magnitude "
+                                           "where lower, in phase, moved to where linear's fine detail is (repeat "
+                                           "for several; docs/neural.md)."),
     out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE", help="Also write the tables and every "
                                        "fold as JSON."),
 ):

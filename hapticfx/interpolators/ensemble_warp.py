@@ -56,7 +56,8 @@ linear's blend of two recorded drops, while it is nearest their mean in RMSE.
 ``beta`` trades the one for the other, chosen on the same left-out training
 velocities (:func:`texture_targets`). With it, and by the same choice, a **fill**:
 the textured centre's bins above 100 Hz quieter than ``g`` times the blend's are
-raised to it in the centre's own phase, ``g`` from
+raised to it in the centre's own phase, and what that adds is moved in time to
+where the blend's fine detail is, ``g`` from
 :data:`~hapticfx.interpolators.texture.FILLS` (0: none). The neighbours' detail
 has a phase unrelated to the centre's, so it costs RMSE for each dB of
 log-spectral distance it buys; the fill buys it more cheaply. Each interval is
@@ -85,7 +86,7 @@ from . import ensemble
 from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
 from .residual import compose, scale
 from .table import VelocityTable, build_table, neighbours
-from .texture import FILLS, TEXTURES, Target, choose as choose_texture, filling, textured
+from .texture import FILLS, TEXTURES, Target, choose as choose_texture, filling, keep as keep_texture
 
 if TYPE_CHECKING:
     from .warp import Morph
@@ -379,7 +380,7 @@ class Fit:
         """``r`` of :mod:`hapticfx.interpolators.residual` at ``w`` between ``lower`` (at ``v_lo``) and ``upper``."""
         i = self._index[(obj, float(v_lo))]
         blend = (1 - w) * lower + w * upper
-        kept = textured(self.morph(obj, i)(w) - blend, blend, self.texture, 0.0, self._rate[obj])
+        kept = keep_texture(self.morph(obj, i)(w) - blend, self.texture, self._rate[obj])
         return (kept + self._fill(obj, i, lower, upper)) / scale(lower, upper)
 
     def _fill(self, obj: str, i: int, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | float:

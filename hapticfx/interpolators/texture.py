@@ -175,8 +175,8 @@ def choose(targets: Iterable[Target], *, betas=TEXTURES, fills=(0.0,)) -> tuple[
 
 def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) -> tuple[dict, np.ndarray]:
     """Per row (``"linear"``, then each ``(beta, g)`` of ``pairs``) an array ``(targets, 5)`` of :data:`MEASURES`:
-    log-spectral distance, ST-SIM and SPQI against every drop (means over them), RMSE against their mean and against the
-    representative; and the floors ``(targets, 2)``: the drop mean's sampling error, the other drops' mean against
+    log-spectral distance, ST-SIM and SPQI against every drop (means over them), RMSE against their mean and
+    against the representative; and the floors ``(targets, 2)``: the drop mean's sampling error, the other drops' mean against
     the representative. The measures are imported here: a fit needs them, an effect served from its table does
     not."""
     from ..processing.likeness import log_spectral_distance, mean_sampling_rmse, rmse
