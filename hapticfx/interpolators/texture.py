@@ -38,7 +38,7 @@ from .residual import bump
 
 TEXTURE_HZ = 100.0
 TEXTURES = (0.0, 0.2, 0.4, 0.6, 0.8)
-FILLS = (0.0, 0.25, 0.5, 0.75, 1.0)
+FILLS = (0.0, 0.25, 0.5, 0.75)
 FILL_FRAME_S = 0.064  # the window of the envelope a fill follows
 KEEP_SHARE = 0.6  # of the gap between linear and a floor: the bar of the bench's generalisation protocol
 BOOTSTRAP = 500  # resamples of the left-out targets
