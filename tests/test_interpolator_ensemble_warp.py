@@ -342,10 +342,11 @@ def test_the_built_in_sets_shipped_table_is_what_a_fit_of_its_drops_chooses_now(
     ds = open_dataset("builtin:helmet-drops")
     table = VelocityTable.load(table_path(ds.path, reducer))
     summary = Fit(training_data(ds, reducer)).summary()
-    assert table.meta["source"] == {"trim": summary["trim"], "texture": summary["texture"], "fill": "choose",
-                                    "penalty": summary["penalty"], "shrink": summary["shrink"],
-                                    "smooth": summary["smooth"]}
+    assert {k: v for k, v in table.meta["source"].items() if k != "pull"} == {
+        "trim": summary["trim"], "texture": summary["texture"], "fill": "choose", "penalty": summary["penalty"],
+        "shrink": summary["shrink"], "smooth": summary["smooth"]}
     assert table.meta["fit"]["fill"] == summary["fill"]  # "choose" in the source; what it chose, here
+    assert table.meta["source"].get("pull", 2) == summary["pull"]  # 2, the bump, in a table before the pull
 
 
 def test_a_table_written_before_smoothing_was_offered_still_serves_and_describes_itself():
@@ -520,3 +521,46 @@ def test_an_interval_the_table_cannot_follow_is_served_without_its_warp_and_the_
     assert not np.allclose(warped, plain)
     assert fit.summary()["unwarped"] == ["brick 2.5-3 m/s"]
 
+
+
+def test_the_pull_is_chosen_flatter_where_targets_lie_off_the_middle_and_the_table_follows_it():
+    from hapticfx.interpolators.ensemble_warp import choose_pull
+    from hapticfx.interpolators.residual import lift
+    from hapticfx.interpolators.texture import Target
+
+    w = np.linspace(0.0, 1.0, 41)
+    for p in (2, 4, 6):
+        assert np.allclose(bump(w) * lift(w, p), 1.0 - np.abs(1.0 - 2.0 * w) ** p, rtol=0, atol=1e-15)
+    assert np.all(lift(w, 2) == 1.0) and lift(0.5, 6) == 1.0
+    with pytest.raises(ValueError, match="even number >= 2, got 3"):
+        lift(w, 3)
+    # the centre is the drops' mean, the blend is off it: the more the pull, the nearer; halfway all pull fully
+    rng = np.random.default_rng(3)
+    drops = rng.standard_normal((4, N))
+    mean, blend = drops.mean(axis=0), drops.mean(axis=0) + rng.standard_normal(N)
+
+    def target(x):
+        return Target(x, blend, mean - blend, drops, mean, drops[0], 1000.0)
+
+    assert choose_pull([target(0.2), target(0.7)])[0] == 6
+    chosen, scores = choose_pull([target(0.5)])
+    assert chosen == 2 and len(set(scores.values())) == 1  # a tie: the least
+
+    # irregular spacing and noisy drops: targets far from halfway, the pull is chosen flatter than the bump
+    data = _data(0.0, velocities=(2.0, 2.15, 2.9, 3.05, 3.8, 3.95, 4.7), drops=4, noise=0.3, seed=5)
+    fit = Fit(data)
+    assert fit.pull > 2 and fit.pull_scores[fit.pull] < fit.pull_scores[2]
+    warp = EnsembleWarpInterpolator()
+    warp.fitted = fit
+    table = tabulate(fit)
+    assert table.meta["source"]["pull"] == fit.pull == fit.summary()["pull"]
+    bank = data.banks["brick"]
+    table.attach(bank, rebuild="(test)")
+    for k in range(len(bank) - 1):
+        lo, hi = bank[k], bank[k + 1]
+        assert np.array_equal(warp.interpolate(lo, hi, lo.velocity), lo.samples)  # the neighbour, exactly
+        assert np.allclose(warp.interpolate(lo, hi, hi.velocity), hi.samples, rtol=0, atol=1e-12)
+        s = max(np.abs(lo.samples).max(), np.abs(hi.samples).max())
+        for x in np.linspace(lo.velocity, hi.velocity, 9):
+            served, direct = table.lookup(lo, hi, float(x)), warp.interpolate(lo, hi, float(x))
+            assert np.all(np.isfinite(served)) and np.abs(served - direct).max() <= TOLERANCE * s

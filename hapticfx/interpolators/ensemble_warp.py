@@ -8,7 +8,7 @@ aligned by dynamic time warping and morphed (:mod:`hapticfx.interpolators.warp`)
 
     blend(w)  = (1 - w) L + w U                        (the representatives)
     centre(w) = morph(Lc, Uc, w)                       (time and value moved a fraction w)
-    profile   = blend(w) + 4 w (1 - w) (centre(w) - blend(w))
+    profile   = blend(w) + 4 w (1 - w) (centre(w) - blend(w))     (the pull below: 1 - |1 - 2w|^p)
 
 The recorded representative comes back at its own velocity. Three choices are
 learned from the training data alone, leaving one training velocity out at a
@@ -44,6 +44,15 @@ a smooth curve through every centre pools them all, at the cost of bending where
 the profile changes fast, which the same leave-one-out choice weighs. It is not
 offered where a warp was chosen: a smoother in raw time blurs events that move.
 
+Then, for the whole dataset: how strongly the profile is **pulled** toward the
+centre, ``1 - |1 - 2w|^p`` with ``p`` from :data:`PULLS` (2: the bump above),
+chosen by the same left-out RMSE (:func:`choose_pull`). The bump pulls fully only
+halfway between two recorded velocities; where they are irregularly spaced a
+velocity often lies far from halfway, and the profile keeps much of the blend of
+two single drops whose noise the centre averages out. The residual is the bump's
+times :func:`~hapticfx.interpolators.residual.lift`, a polynomial in ``w``: the
+recorded neighbour still comes back at its own velocity.
+
 Last, for the whole dataset: how much **texture** the profile keeps, the share
 ``beta`` of the representatives' content above 100 Hz that the centre does not
 replace (:mod:`hapticfx.interpolators.texture`)::
@@ -73,7 +82,7 @@ warp two nodes suffice.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -84,7 +93,7 @@ from ..interfaces import Profile, TrainingData
 from ..signal import valid_number
 from . import ensemble
 from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
-from .residual import compose, scale
+from .residual import compose, lift, scale
 from .table import VelocityTable, build_table, neighbours
 from .texture import FILLS, TEXTURES, Target, choose as choose_texture, filling, keep as keep_texture
 
@@ -94,6 +103,7 @@ if TYPE_CHECKING:
 NAME = "ensemble-warp"
 CHOOSE = "choose"  # the fill option's value that asks for it to be chosen
 PENALTIES = (0.01, 0.03, float("inf"))
+PULLS = (2, 4, 6)  # the pull toward the centres, 1 - |1 - 2w|^p: 2 is the bump 4 w (1 - w)
 TOLERANCE = 1e-3  # of the neighbours' larger peak: -60 dB
 
 
@@ -304,13 +314,22 @@ def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], po
                          at=(mid_blend, mid_centre - mid_blend))
 
 
+def choose_pull(targets: list[Target], pulls=PULLS) -> tuple[int, dict[int, float]]:
+    """The pull ``p`` (:func:`~hapticfx.interpolators.residual.lift`) whose profiles, at every left-out training
+    target, come nearest its drop mean (mean RMSE; the least ``p`` on a tie), and each ``p``'s mean RMSE."""
+    scores = {p: float(np.mean([_rmse(t.blend + 4 * t.w * (1 - t.w) * lift(t.w, p) * t.diff, t.mean)
+                                for t in targets])) for p in pulls}
+    return min(pulls, key=lambda p: (scores[p], p)), scores
+
+
 class Fit:
     """What the method learned from ``data``: ``trim``, every object's ``penalties`` and drop centres, the
     dataset's ``texture`` and ``fill``; the morph of each recorded interval is made on first use. ``trim`` and
-    ``texture`` None: chosen; ``fill`` None: chosen with the texture, from :data:`FILLS`."""
+    ``texture`` None: chosen; ``fill`` None: chosen with the texture, from :data:`FILLS`; ``pull`` None: chosen from
+    :data:`PULLS` (:func:`choose_pull`), before the texture."""
 
     def __init__(self, data: TrainingData, *, trim: float | None = None, texture: float | None = None,
-                 fill: float | None = None):
+                 fill: float | None = None, pull: int | None = None):
         missing = [obj for obj in data.banks if obj not in data.drops]
         if missing:
             raise DatasetError(f"the {NAME} interpolator needs every recorded drop; dataset {data.dataset!r} keeps "
@@ -330,10 +349,12 @@ class Fit:
         self.smooth, self.pooled_smooth, self.smooth_scores = choose_smoothing(objects, self.penalties, self.shrink,
                                                                                shrink_folds, paths)
         pools = {obj: self._pool(obj, paths) for obj in objects}
+        targets = list(texture_targets(objects, self.penalties, pools, paths))
+        self.pull, self.pull_scores = choose_pull(targets, PULLS if pull is None else (pull,))
         self.texture, self.fill, self.fill_chosen, self.texture_scores = texture, fill, fill is None, None
         if texture is None or fill is None:
             (self.texture, self.fill), self.texture_scores = choose_texture(
-                list(texture_targets(objects, self.penalties, pools, paths)),
+                [replace(t, lift=float(lift(t.w, self.pull))) for t in targets],
                 betas=TEXTURES if texture is None else (texture,), fills=FILLS if fill is None else (fill,))
         self.centres = {obj: pools[obj](o.velocities, o.centres, o.noise) for obj, o in objects.items()}
         self._objects, self._pools = objects, pools
@@ -381,7 +402,7 @@ class Fit:
         i = self._index[(obj, float(v_lo))]
         blend = (1 - w) * lower + w * upper
         kept = keep_texture(self.morph(obj, i)(w) - blend, self.texture, self._rate[obj])
-        return (kept + self._fill(obj, i, lower, upper)) / scale(lower, upper)
+        return lift(w, self.pull) * (kept + self._fill(obj, i, lower, upper)) / scale(lower, upper)
 
     def _fill(self, obj: str, i: int, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | float:
         """What the fill adds to the centre all along ``obj``'s interval ``i``: its fill at the middle
@@ -408,7 +429,7 @@ class Fit:
         def name(p):
             return None if not np.isfinite(p) else p
 
-        return {"trim": self.trim, "texture": self.texture, "fill": self.fill,
+        return {"trim": self.trim, "texture": self.texture, "fill": self.fill, "pull": self.pull,
                 "penalty": {obj: name(p) for obj, p in self.penalties.items()},
                 "pooled_penalty": name(self.pooled_penalty),
                 "warped_objects": sum(bool(np.isfinite(p)) for p in self.penalties.values()),
@@ -425,6 +446,7 @@ class Fit:
                                     for obj, own in self.shrink_scores.items()},
                 "smooth_loo_rmse": {obj: {("none" if k is None else str(k)): x for k, x in own.items()}
                                     for obj, own in self.smooth_scores.items()},
+                "pull_loo_rmse": {str(p): x for p, x in self.pull_scores.items()},
                 "texture_loo": self.texture_scores}
 
 
@@ -441,7 +463,7 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
 
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
                         source={"trim": fit.trim, "texture": fit.texture,
-                                "fill": CHOOSE if fit.fill_chosen else fit.fill,
+                                "fill": CHOOSE if fit.fill_chosen else fit.fill, "pull": fit.pull,
                                 "penalty": fit.summary()["penalty"],
                                 "shrink": dict(fit.shrink), "smooth": dict(fit.smooth)},
                         dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress, on_rough=fit.unwarp)
@@ -516,12 +538,13 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
         return {**super().describe(),
                 "warp penalty": {obj: "none" if p is None else p for obj, p in source["penalty"].items()},
                 "texture": source.get("texture", 0.0),  # none in a table written before the texture
+                "pull": source.get("pull", 2),  # none in a table written before the pull was chosen: the bump
                 "fill": self.table.meta["fit"].get("fill", 0.0),
                 "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()},
                 "centres smoothed": {obj: "no" if s is None else s  # none in a table written before smoothing
                                      for obj, s in source.get("smooth", {}).items()}}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_shrink", "choose_smoothing", "fit_table", "jackknife_noise",
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_pull", "choose_shrink", "choose_smoothing", "fit_table", "jackknife_noise",
            "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate", "table_path",
-           "texture_targets", "CHOOSE", "MIN_FOLDS", "PENALTIES", "SHRINK", "SMOOTHING", "TOLERANCE"]
+           "texture_targets", "CHOOSE", "MIN_FOLDS", "PENALTIES", "PULLS", "SHRINK", "SMOOTHING", "TOLERANCE"]

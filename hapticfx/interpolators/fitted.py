@@ -28,6 +28,7 @@ def describe(table) -> str:
     return (f"trim {source['trim']}, {warped} of {len(source['penalty'])} objects warped, {shrunk} shrunk, "
             f"{smoothed} smoothed, texture {source.get('texture', 0.0)}"  # no texture before it was offered
             + (f", fill {fill}" if fill else "")
+            + (f", pull {source['pull']}" if source.get("pull", 2) != 2 else "")  # 2: the bump, the pull before
             + (f"; served without the warp: {', '.join(unwarped)}" if unwarped else ""))
 
 

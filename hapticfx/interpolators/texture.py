@@ -120,7 +120,8 @@ class Target:
     """One left-out target: the representatives' ``blend`` at its position ``w``, the method's ``diff`` there
     (centre - blend), and what the target velocity recorded (``drops`` ``(D, N)``, their ``mean``, the bank's
     representative ``rep``); ``at``: the blend and diff where the method computes its fill (:func:`textured`;
-    None: at the target)."""
+    None: at the target); ``lift``: the method's pull toward its centre at ``w`` over the bump
+    (:func:`hapticfx.interpolators.residual.lift`)."""
 
     w: float
     blend: np.ndarray
@@ -130,6 +131,7 @@ class Target:
     rep: np.ndarray
     rate_hz: float
     at: tuple[np.ndarray, np.ndarray] | None = None
+    lift: float = 1.0
 
 
 def choose(targets: Iterable[Target], *, betas=TEXTURES, fills=(0.0,)) -> tuple[tuple[float, float], dict]:
@@ -195,7 +197,7 @@ def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) ->
 
         rows["linear"].append(measured(t.blend))
         for b, g in pairs:
-            rows[(b, g)].append(measured(t.blend + bump(t.w) * textured(t.diff, t.blend, b, g, t.rate_hz, at=t.at)))
+            rows[(b, g)].append(measured(t.blend + bump(t.w) * t.lift * textured(t.diff, t.blend, b, g, t.rate_hz, at=t.at)))
         kept = int(np.argmin(np.sum((t.drops - t.rep) ** 2, axis=1)))  # the drop the bank keeps
         others = np.delete(t.drops, kept, axis=0)
         floors.append((mean_sampling_rmse(t.drops), float(rmse(others.mean(axis=0), t.rep)) if len(others) else np.nan))
