@@ -77,7 +77,7 @@ so that its table stays as small as without a fill. The option ``fill`` fixes
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
 the method by at most :data:`TOLERANCE` of the neighbours' larger peak; with no
-warp two nodes suffice.
+warp two nodes suffice under the bump, 5 or 9 under the pull ``p`` = 4 or 6.
 """
 
 from __future__ import annotations
