@@ -553,7 +553,8 @@ def test_the_pull_is_chosen_flatter_where_targets_lie_off_the_middle_and_the_tab
     warp = EnsembleWarpInterpolator()
     warp.fitted = fit
     table = tabulate(fit)
-    assert table.meta["source"]["pull"] == fit.pull == fit.summary()["pull"]
+    assert table.meta["source"]["pull"] == fit.pull == fit.summary()["pull"] == table.pull
+    assert table.n_nodes == tabulate(Fit(data, pull=2)).n_nodes  # the pull weighs the nodes, adds none
     bank = data.banks["brick"]
     table.attach(bank, rebuild="(test)")
     for k in range(len(bank) - 1):

@@ -181,3 +181,34 @@ def test_corrupt_and_foreign_files_are_refused(tmp_path):
     np.savez(broken, **arrays)
     with pytest.raises(CheckpointError, match="broken.table.npz: malformed velocity table .*nodes from 0 to 1"):
         VelocityTable.load(broken)
+
+
+def test_a_table_weighs_its_nodes_by_the_pull_and_keeps_the_bumps_node_counts(tmp_path):
+    import json
+
+    from hapticfx.interpolators.residual import lift
+
+    bank = _bank()
+    table = _table(affine, [bank], pull_power=4)
+    assert table.n_nodes == 2 * (len(V) - 1) and table.meta["pull"] == 4 == table.pull  # an affine residual: 2 nodes
+    assert "pull" not in _table(affine, [bank]).meta  # the bump: as every table before the pull
+    back = VelocityTable.load(table.save(tmp_path / "p.table.npz"))
+    back.attach(bank, rebuild="x")
+    for v in np.linspace(2.0, 4.0, 17):
+        i = min(int(np.searchsorted(V, v, side="right")) - 1, len(V) - 2)
+        lo, hi = bank[i], bank[i + 1]
+        w = weight(lo.velocity, hi.velocity, v)
+        r = affine(lo.samples[None], hi.samples[None], np.array([lo.velocity]), np.array([hi.velocity]),
+                   np.array([v]), bank.object)[0]
+        expected = compose(lo.samples, hi.samples, w, lift(w, 4) * r)  # 1 - |1 - 2w|^4 toward the residual
+        assert np.allclose(back.lookup(lo, hi, float(v)), expected, rtol=0, atol=1e-12)
+    with np.load(tmp_path / "p.table.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    meta = json.loads(str(arrays["meta_json"]))
+    meta["pull"] = 3
+    arrays["meta_json"] = np.array(json.dumps(meta))
+    np.savez(tmp_path / "odd.table.npz", **arrays)
+    with pytest.raises(CheckpointError, match="odd.table.npz: malformed velocity table .*even number >= 2, got 3"):
+        VelocityTable.load(tmp_path / "odd.table.npz")
+    with pytest.raises(ValueError, match="even number >= 2, got 5"):
+        _table(affine, [bank], pull_power=5)

@@ -77,7 +77,7 @@ so that its table stays as small as without a fill. The option ``fill`` fixes
 Served from a velocity table like ``ensemble``. The morph is not a polynomial in
 ``w``, so each interval's residual is tabulated on Chebyshev nodes until it misses
 the method by at most :data:`TOLERANCE` of the neighbours' larger peak; with no
-warp two nodes suffice under the bump, 5 or 9 under the pull ``p`` = 4 or 6.
+warp two nodes suffice (a table weighs its nodes by the pull, so the pull adds none).
 """
 
 from __future__ import annotations
@@ -399,10 +399,15 @@ class Fit:
 
     def residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
         """``r`` of :mod:`hapticfx.interpolators.residual` at ``w`` between ``lower`` (at ``v_lo``) and ``upper``."""
+        return lift(w, self.pull) * self.bump_residual(obj, v_lo, lower, upper, w)
+
+    def bump_residual(self, obj: str, v_lo: float, lower: np.ndarray, upper: np.ndarray, w: float) -> np.ndarray:
+        """The residual as the bump would draw the profile toward it (:meth:`residual` over the pull's
+        :func:`~hapticfx.interpolators.residual.lift`): what a table stores, weighing it by the pull at a lookup."""
         i = self._index[(obj, float(v_lo))]
         blend = (1 - w) * lower + w * upper
         kept = keep_texture(self.morph(obj, i)(w) - blend, self.texture, self._rate[obj])
-        return lift(w, self.pull) * (kept + self._fill(obj, i, lower, upper)) / scale(lower, upper)
+        return (kept + self._fill(obj, i, lower, upper)) / scale(lower, upper)
 
     def _fill(self, obj: str, i: int, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | float:
         """What the fill adds to the centre all along ``obj``'s interval ``i``: its fill at the middle
@@ -458,7 +463,7 @@ def table_path(dataset_path: Path, reducer: str) -> Path:
 def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
     """``fit`` as a velocity table (every object and interval of its data)."""
     def residual(lower, upper, v_lo, v_hi, v, obj):
-        return np.stack([fit.residual(obj, v_lo[k], lower[k], upper[k], (v[k] - v_lo[k]) / (v_hi[k] - v_lo[k]))
+        return np.stack([fit.bump_residual(obj, v_lo[k], lower[k], upper[k], (v[k] - v_lo[k]) / (v_hi[k] - v_lo[k]))
                          for k in range(len(v))])
 
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
@@ -466,7 +471,8 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
                                 "fill": CHOOSE if fit.fill_chosen else fit.fill, "pull": fit.pull,
                                 "penalty": fit.summary()["penalty"],
                                 "shrink": dict(fit.shrink), "smooth": dict(fit.smooth)},
-                        dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress, on_rough=fit.unwarp)
+                        dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress, on_rough=fit.unwarp,
+                        pull_power=fit.pull)
     table.meta["fit"] = fit.summary()
     return table
 
@@ -545,6 +551,6 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
                                      for obj, s in source.get("smooth", {}).items()}}
 
 
-__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_pull", "choose_shrink", "choose_smoothing", "fit_table", "jackknife_noise",
-           "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate", "table_path",
+__all__ = ["EnsembleWarpInterpolator", "Fit", "choose_pull", "choose_shrink", "choose_smoothing", "fit_table",
+           "jackknife_noise", "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate", "table_path",
            "texture_targets", "CHOOSE", "MIN_FOLDS", "PENALTIES", "PULLS", "SHRINK", "SMOOTHING", "TOLERANCE"]

@@ -41,11 +41,17 @@ def bump(w):
 def lift(w, p: int):
     """The pull ``1 - |1 - 2w|^p`` over the bump: ``sum_{k < p/2} (1 - 2w)^(2k)`` for an even ``p`` (1 for ``p = 2``,
     the bump itself). Multiplying a residual by it gives a method the flatter pull toward its centre, one at
-    ``w`` = 1/2, zero at both neighbours, and a polynomial in ``w``, so that a table follows it."""
-    if p < 2 or p % 2:
+    ``w`` = 1/2, zero at both neighbours, and a polynomial in ``w``. A table stores the residual without it and
+    weighs its nodes by :func:`pull` instead (:mod:`hapticfx.interpolators.table`): as few nodes as the bump's."""
+    if not isinstance(p, (int, np.integer)) or p < 2 or p % 2:
         raise ValueError(f"the pull's power must be an even number >= 2, got {p!r}")
     u2 = (1.0 - 2.0 * np.asarray(w, dtype=np.float64)) ** 2
     return sum(u2**k for k in range(p // 2))
+
+
+def pull(w, p: int = 2):
+    """``1 - |1 - 2w|^p`` (an even ``p``): :func:`bump` times :func:`lift`; the bump itself for ``p = 2``."""
+    return bump(w) * lift(w, p)
 
 
 def compose(lower: np.ndarray, upper: np.ndarray, w, residual: np.ndarray) -> np.ndarray:

@@ -23,6 +23,12 @@ File: one ``.npz`` (no pickle) holding ``meta_json`` and, per object ``k`` (in s
 interval's nodes start; one more entry than intervals) and ``o<k>.residual``;
 ``x.<name>`` for what the table's owner keeps beside it (a physics model's
 profiles at its own velocity grid: :mod:`hapticfx.models.physics_table`).
+
+A method whose profile is drawn toward its residual by a flatter pull than the bump,
+``1 - |1 - 2w|^p`` (:func:`hapticfx.interpolators.residual.pull`), records ``pull: p`` in the
+table's metadata and stores its residual as the bump's form would have it (the residual
+over :func:`~hapticfx.interpolators.residual.lift`): a lookup weighs the nodes by the pull,
+and the table keeps the bump's node counts. Without the key, ``p`` = 2: the bump.
 """
 
 from __future__ import annotations
@@ -42,7 +48,7 @@ from ..data.dataset import UNREADABLE
 from ..errors import CheckpointError, SignalError, one_line
 from ..interfaces import Blend, Interpolator, Profile, Term
 from ..signal import valid_signal, valid_velocity
-from .residual import bump, scale
+from .residual import lift, pull, scale
 
 FORMAT = "hapticfx-interpolator-table"
 VERSION = 1
@@ -147,6 +153,11 @@ class VelocityTable:
         return str(self.path) if self.path else "velocity table"
 
     @property
+    def pull(self) -> int:
+        """The power of the pull the residual nodes are weighed by at a lookup (2: the bump)."""
+        return int(self.meta.get("pull", 2))
+
+    @property
     def n_nodes(self) -> int:
         return sum(len(iv.w) for ivs in self.intervals.values() for iv in ivs)
 
@@ -192,7 +203,7 @@ class VelocityTable:
                               f"{upper.velocity} m/s")
         obj, i, iv, s = found
         w = (v - lower.velocity) / (upper.velocity - lower.velocity)
-        k = 4.0 * w * (1.0 - w) * s  # residual.bump(w) * residual.scale(lower, upper)
+        k = float(pull(w, self.pull)) * s  # residual.pull(w, p) * residual.scale(lower, upper)
         extra = tuple(Term(("table", obj, i, j), k * float(c), iv.residual[j])
                       for j, c in enumerate(iv.coefficients(w)) if c) if k else ()
         return Blend(1.0 - w, w, extra)
@@ -257,6 +268,8 @@ def _intervals(meta: dict, arrays: dict) -> dict[str, list[Interval]]:
     for key in ("interpolator", "source", "dataset", "reducer", "objects", "n_samples", "tolerance"):
         if key not in meta:
             raise KeyError(f"metadata has no {key!r}")
+    if "pull" in meta:
+        lift(0.5, meta["pull"])  # an even integer >= 2, or a ValueError naming it
     n = int(meta["n_samples"])
     out = {}
     for k, obj in enumerate(sorted(meta["objects"])):
@@ -279,7 +292,7 @@ def _intervals(meta: dict, arrays: dict) -> dict[str, list[Interval]]:
 
 def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, source: dict, dataset: str,
                 tolerance: float = DEFAULT_TOLERANCE, progress: Callable[[str], None] | None = None,
-                on_rough: Callable[[str, int], None] | None = None) -> VelocityTable:
+                on_rough: Callable[[str, int], None] | None = None, pull_power: int = 2) -> VelocityTable:
     """Tabulate ``residual_fn`` over every recorded interval of ``banks`` (one per object, one reducer).
 
     Each interval starts with the nodes ``w`` = 0 and 1 and doubles the number of
@@ -287,28 +300,31 @@ def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, 
     at most ``tolerance`` (relative to the neighbours' larger peak) at the points of
     four times the degree. An interval that does not get there is refused, unless the
     method has a smoother form for it: ``on_rough(object, i)`` is then told (interval
-    ``i``, from recorded velocity ``i`` to ``i + 1``) and it is tabulated once more.
+    ``i``, from recorded velocity ``i`` to ``i + 1``) and it is tabulated once more. ``pull_power``: the profile
+    is drawn toward ``residual_fn``'s residual by ``1 - |1 - 2w|^p`` instead of the bump (recorded in the table).
     """
+    lift(0.5, pull_power)  # an even integer >= 2
     banks = {b.object: b for b in banks}
     if not banks:
         raise CheckpointError("no banks to tabulate")
     say = progress or (lambda message: None)
     intervals = {}
     for obj, bank in banks.items():
-        intervals[obj] = [_tabulate(bank, i, residual_fn, tolerance, on_rough) for i in range(len(bank) - 1)]
+        intervals[obj] = [_tabulate(bank, i, residual_fn, tolerance, on_rough, pull_power)
+                          for i in range(len(bank) - 1)]
         say(f"{obj}: {len(intervals[obj])} intervals, {sum(len(iv.w) for iv in intervals[obj])} nodes")
     return VelocityTable.of(banks, intervals, interpolator=interpolator, source=source, dataset=dataset,
-                            tolerance=tolerance)
+                            tolerance=tolerance, **({"pull": pull_power} if pull_power != 2 else {}))
 
 
-def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float, on_rough) -> Interval:
+def _tabulate(bank, i: int, residual_fn: ResidualFn, tolerance: float, on_rough, pull_power: int) -> Interval:
     try:
-        return tabulate_interval(bank[i], bank[i + 1], residual_fn, tolerance, obj=bank.object)
+        return tabulate_interval(bank[i], bank[i + 1], residual_fn, tolerance, obj=bank.object, pull_power=pull_power)
     except CheckpointError:
         if on_rough is None:
             raise
     on_rough(bank.object, i)
-    return tabulate_interval(bank[i], bank[i + 1], residual_fn, tolerance, obj=bank.object)
+    return tabulate_interval(bank[i], bank[i + 1], residual_fn, tolerance, obj=bank.object, pull_power=pull_power)
 
 
 def _position(f: Fraction) -> float:
@@ -331,11 +347,12 @@ def _ends_from_interior(degree: int, rows: list[np.ndarray]) -> list[np.ndarray]
 
 
 def tabulate_interval(lo: Profile, hi: Profile, residual_fn: ResidualFn, tolerance: float, *, obj: str,
-                      max_degree: int = _MAX_DEGREE, probes: int = 4) -> Interval:
+                      max_degree: int = _MAX_DEGREE, probes: int = 4, pull_power: int = 2) -> Interval:
     """The residual of one interval between neighbours ``lo`` and ``hi`` on Chebyshev-Lobatto nodes, the degree
     doubled until the polynomial misses ``residual_fn`` by at most ``tolerance`` at the nodes of ``probes`` times
-    the degree (weighted by the bump, relative to the neighbours' larger peak). With ``probes=2`` every probe is a
-    node of the next degree: no evaluation is wasted (for a costly method, such as an ODE).
+    the degree (weighted by the pull, the bump for ``pull_power`` 2, relative to the neighbours' larger peak). With
+    ``probes=2`` every probe is a node of the next degree: no evaluation is wasted (for a costly method, such as an
+    ODE).
 
     A ``residual_fn`` may answer NaN at ``w`` = 0 and 1 (it has no value of its own there): the end rows are then
     those of the polynomial through the interior nodes (:func:`_ends_from_interior`).
@@ -361,7 +378,8 @@ def tabulate_interval(lo: Profile, hi: Profile, residual_fn: ResidualFn, toleran
             rows = _ends_from_interior(degree, rows)
         iv = Interval(np.array([_position(f) for f in _nodes(degree)]), np.stack(rows))
         checks = [f for f in _nodes(probes * degree) if f not in set(_nodes(degree))]
-        err = max(float(np.max(bump(_position(f)) * np.abs(known[f] - iv.at(_position(f))))) for f in checks)
+        err = max(float(np.max(pull(_position(f), pull_power) * np.abs(known[f] - iv.at(_position(f)))))
+                  for f in checks)
         if err <= tolerance:
             return iv
         if 2 * degree > max_degree:
