@@ -525,12 +525,13 @@ def test_an_interval_the_table_cannot_follow_is_served_without_its_warp_and_the_
 
 def test_the_pull_is_chosen_flatter_where_targets_lie_off_the_middle_and_the_table_follows_it():
     from hapticfx.interpolators.ensemble_warp import choose_pull
-    from hapticfx.interpolators.residual import lift
+    from hapticfx.interpolators.residual import lift, pull
     from hapticfx.interpolators.texture import Target
 
     w = np.linspace(0.0, 1.0, 41)
     for p in (2, 4, 6):
         assert np.allclose(bump(w) * lift(w, p), 1.0 - np.abs(1.0 - 2.0 * w) ** p, rtol=0, atol=1e-15)
+        assert np.allclose([pull(float(x), p) for x in w], pull(w, p), rtol=0, atol=1e-15)  # a lookup's floats
     assert np.all(lift(w, 2) == 1.0) and lift(0.5, 6) == 1.0
     with pytest.raises(ValueError, match="even number >= 2, got 3"):
         lift(w, 3)

@@ -50,7 +50,11 @@ def lift(w, p: int):
 
 
 def pull(w, p: int = 2):
-    """``1 - |1 - 2w|^p`` (an even ``p``): :func:`bump` times :func:`lift`; the bump itself for ``p = 2``."""
+    """``1 - |1 - 2w|^p`` (an even ``p``): :func:`bump` times :func:`lift`; the bump itself for ``p = 2``. A float
+    ``w`` (a table's lookup, once per impact) is computed in plain floats: no array is made."""
+    if isinstance(w, float):
+        u2 = (1.0 - 2.0 * w) ** 2
+        return 4.0 * w * (1.0 - w) * sum(u2**k for k in range(p // 2))
     return bump(w) * lift(w, p)
 
 
