@@ -93,7 +93,7 @@ from ..interfaces import Profile, TrainingData
 from ..signal import valid_number
 from . import ensemble
 from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
-from .residual import compose, lift, scale
+from .residual import compose, lift, pull, scale
 from .table import VelocityTable, build_table, neighbours
 from .texture import FILLS, TEXTURES, Target, choose as choose_texture, filling, keep as keep_texture
 
@@ -317,8 +317,8 @@ def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], po
 def choose_pull(targets: list[Target], pulls=PULLS) -> tuple[int, dict[int, float]]:
     """The pull ``p`` (:func:`~hapticfx.interpolators.residual.lift`) whose profiles, at every left-out training
     target, come nearest its drop mean (mean RMSE; the least ``p`` on a tie), and each ``p``'s mean RMSE."""
-    scores = {p: float(np.mean([_rmse(t.blend + 4 * t.w * (1 - t.w) * lift(t.w, p) * t.diff, t.mean)
-                                for t in targets])) for p in pulls}
+    scores = {p: float(np.mean([_rmse(t.blend + pull(t.w, p) * t.diff, t.mean) for t in targets]))
+              for p in pulls}
     return min(pulls, key=lambda p: (scores[p], p)), scores
 
 

@@ -38,24 +38,26 @@ def bump(w):
     return 4.0 * w * (1.0 - w)
 
 
+def valid_pull(p) -> int:
+    """``p`` if it is a pull's power, an even integer >= 2; otherwise a ValueError naming it."""
+    if not isinstance(p, (int, np.integer)) or p < 2 or p % 2:
+        raise ValueError(f"the pull's power must be an even number >= 2, got {p!r}")
+    return int(p)
+
+
 def lift(w, p: int):
     """The pull ``1 - |1 - 2w|^p`` over the bump: ``sum_{k < p/2} (1 - 2w)^(2k)`` for an even ``p`` (1 for ``p = 2``,
     the bump itself). Multiplying a residual by it gives a method the flatter pull toward its centre, one at
     ``w`` = 1/2, zero at both neighbours, and a polynomial in ``w``. A table stores the residual without it and
     weighs its nodes by :func:`pull` instead (:mod:`hapticfx.interpolators.table`): as few nodes as the bump's."""
-    if not isinstance(p, (int, np.integer)) or p < 2 or p % 2:
-        raise ValueError(f"the pull's power must be an even number >= 2, got {p!r}")
-    u2 = (1.0 - 2.0 * np.asarray(w, dtype=np.float64)) ** 2
-    return sum(u2**k for k in range(p // 2))
+    u2 = (1.0 - 2.0 * (w if isinstance(w, float) else np.asarray(w, dtype=np.float64))) ** 2
+    return sum(u2**k for k in range(valid_pull(p) // 2))
 
 
 def pull(w, p: int = 2):
     """``1 - |1 - 2w|^p`` (an even ``p``): :func:`bump` times :func:`lift`; the bump itself for ``p = 2``. A float
     ``w`` (a table's lookup, once per impact) is computed in plain floats: no array is made."""
-    if isinstance(w, float):
-        u2 = (1.0 - 2.0 * w) ** 2
-        return 4.0 * w * (1.0 - w) * sum(u2**k for k in range(p // 2))
-    return bump(w) * lift(w, p)
+    return (4.0 * w * (1.0 - w) if isinstance(w, float) else bump(w)) * lift(w, p)
 
 
 def compose(lower: np.ndarray, upper: np.ndarray, w, residual: np.ndarray) -> np.ndarray:

@@ -48,7 +48,7 @@ from ..data.dataset import UNREADABLE
 from ..errors import CheckpointError, SignalError, one_line
 from ..interfaces import Blend, Interpolator, Profile, Term
 from ..signal import valid_signal, valid_velocity
-from .residual import lift, pull, scale
+from .residual import pull, scale, valid_pull
 
 FORMAT = "hapticfx-interpolator-table"
 VERSION = 1
@@ -269,7 +269,7 @@ def _intervals(meta: dict, arrays: dict) -> dict[str, list[Interval]]:
         if key not in meta:
             raise KeyError(f"metadata has no {key!r}")
     if "pull" in meta:
-        lift(0.5, meta["pull"])  # an even integer >= 2, or a ValueError naming it
+        valid_pull(meta["pull"])
     n = int(meta["n_samples"])
     out = {}
     for k, obj in enumerate(sorted(meta["objects"])):
@@ -303,7 +303,7 @@ def build_table(banks: Iterable, residual_fn: ResidualFn, *, interpolator: str, 
     ``i``, from recorded velocity ``i`` to ``i + 1``) and it is tabulated once more. ``pull_power``: the profile
     is drawn toward ``residual_fn``'s residual by ``1 - |1 - 2w|^p`` instead of the bump (recorded in the table).
     """
-    lift(0.5, pull_power)  # an even integer >= 2
+    valid_pull(pull_power)
     banks = {b.object: b for b in banks}
     if not banks:
         raise CheckpointError("no banks to tabulate")

@@ -197,12 +197,13 @@ def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) ->
 
         rows["linear"].append(measured(t.blend))
         for b, g in pairs:
-            rows[(b, g)].append(measured(t.blend + bump(t.w) * t.lift * textured(t.diff, t.blend, b, g, t.rate_hz, at=t.at)))
+            drawn = bump(t.w) * t.lift * textured(t.diff, t.blend, b, g, t.rate_hz, at=t.at)
+            rows[(b, g)].append(measured(t.blend + drawn))
         kept = int(np.argmin(np.sum((t.drops - t.rep) ** 2, axis=1)))  # the drop the bank keeps
         others = np.delete(t.drops, kept, axis=0)
         floors.append((mean_sampling_rmse(t.drops), float(rmse(others.mean(axis=0), t.rep)) if len(others) else np.nan))
     return {b: np.array(v) for b, v in rows.items()}, np.array(floors)
 
 
-__all__ = ["Target", "choose", "envelope", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP", "FILLS",
-           "FILL_FRAME_S", "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]
+__all__ = ["Target", "choose", "envelope", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP",
+           "FILLS", "FILL_FRAME_S", "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]
