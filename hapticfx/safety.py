@@ -143,7 +143,7 @@ class SafetyLimiter:
             if at_s is not None and at_s > self._clock_s:
                 self._tail = self._tail_after_gap(at_s)
                 self._clock_s = float(at_s)
-            peak = float(np.max(np.abs(x)))
+            peak = float(max(x.max(), -x.min()))  # no |x| array: a render's 24,000 samples
             if peak > self._peak:
                 factor = self._peak / peak
                 x *= factor
@@ -157,7 +157,12 @@ class SafetyLimiter:
             flat = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
             if floor is not None:
                 flat = np.maximum(np.abs(flat), np.abs(floor))
-            self._tail = np.concatenate([self._tail, flat])[-keep:] if keep else np.zeros(0)
+            if not keep:
+                self._tail = np.zeros(0)
+            elif flat.size >= keep:  # a copy: the caller owns the output
+                self._tail = np.array(flat[-keep:], dtype=np.float64)
+            else:
+                self._tail = np.concatenate([self._tail, flat])[-keep:]
         return x
 
     def process_blocks(self, samples, *, block: int, at_s: float,
@@ -196,7 +201,7 @@ class SafetyLimiter:
         np.clip(out, -self._peak, self._peak, out=out)
         tail = self._tail_after_gap(at_s) if at_s > self._clock_s else self._tail
         joined = np.concatenate([tail, out if floor is None else np.maximum(np.abs(out), np.abs(floor))])
-        if self._over_budget(joined, slack=1 + 1e-12):
+        if self._over_budget((joined * joined,), slack=1 + 1e-12):
             return None
         events = self._counts["peak_events"] + np.concatenate([[0], np.cumsum(acts)])
         reduction = np.minimum.accumulate(np.concatenate([[self._max_reduction], gains]))
@@ -233,17 +238,20 @@ class SafetyLimiter:
             self._tail, history, self._clock_s, counts, self._max_reduction = state
             self._on_history, self._counts = deque(history), dict(counts)
 
-    def _over_budget(self, joined: np.ndarray, slack: float = 1.0, *, squared: bool = False) -> bool:
-        """Whether any window of any RMS constraint holds more energy than it may (``joined`` squared already
-        with ``squared``)."""
+    def _over_budget(self, pieces: Sequence[np.ndarray], slack: float = 1.0) -> bool:
+        """Whether any window of any RMS constraint holds more energy than it may: ``pieces``, consecutive
+        stretches of the squared output, are joined only where a window has to be looked at (a render's
+        24,000 samples and the tail before them: joining them cost more than the whole check)."""
         # Not a BLAS dot product: OpenBLAS hands a long one to its helper thread, which a busy core can stall
         # for milliseconds.
-        sq = joined if squared else joined * joined
-        total = float(sq.sum())  # no window holds more than all of it: most impacts stop here
+        total = sum(float(p.sum()) for p in pieces)  # no window holds more than all of it: most impacts stop here
+        sq = None
         for rms, win in self._rms:
             budget = rms * rms * win * slack
             if total <= budget:
                 continue
+            if sq is None:
+                sq = np.concatenate(pieces)
             # Cheap bound first: a window touches at most `reach` consecutive blocks of win/8 samples.
             size = max(1, win // 8)
             full = sq.size // size * size
@@ -264,8 +272,8 @@ class SafetyLimiter:
         mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else x
         sq = mono * mono
         floor_sq = None if floor is None else np.asarray(floor, dtype=np.float64) ** 2  # either version may play
-        if not self._over_budget(np.concatenate([self._tail ** 2, sq if floor_sq is None else np.maximum(sq, floor_sq)]),
-                                 slack=1 + 1e-12, squared=True):
+        if not self._over_budget((self._tail ** 2, sq if floor_sq is None else np.maximum(sq, floor_sq)),
+                                 slack=1 + 1e-12):
             return x
         # Energy the earlier (already sent) samples contribute cannot be changed: scale only the new samples
         # so that every window reaching into them stays within budget, for every constraint. Each window
