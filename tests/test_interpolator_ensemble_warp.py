@@ -344,7 +344,7 @@ def test_the_built_in_sets_shipped_table_is_what_a_fit_of_its_drops_chooses_now(
     summary = Fit(training_data(ds, reducer)).summary()
     assert {k: v for k, v in table.meta["source"].items() if k != "pull"} == {
         "trim": summary["trim"], "texture": summary["texture"], "fill": "choose", "penalty": summary["penalty"],
-        "shrink": summary["shrink"], "smooth": summary["smooth"], "textures": summary["textures"]}
+        "shrink": summary["shrink"], "smooth": summary["smooth"]}
     assert table.meta["fit"]["fill"] == summary["fill"]  # "choose" in the source; what it chose, here
     assert table.meta["source"].get("pull", 2) == summary["pull"]  # 2, the bump, in a table before the pull
 
@@ -417,33 +417,6 @@ def test_texture_is_chosen_where_the_drops_mean_loses_their_detail_and_not_where
     assert chosen["spqi"] > ringing.texture_scores["0.0"]["spqi"]
     plain = Fit(_ringing(ring=0.0), fill=0.0)  # no detail the mean loses: every texture the same, the least taken
     assert plain.texture == 0.0
-
-
-def test_each_object_keeps_its_own_texture_and_the_table_serves_it():
-    bell, gong = _ringing(), _ringing(ring=0.8, seed=1)
-    g = gong.banks["bell"]
-    data = TrainingData({"bell": bell.banks["bell"], "gong": ProfileBank("gong", "max-min", 1000.0, g.velocities,
-                                                                         g.profiles)},
-                        "max-min", "synthetic", {"bell": bell.drops["bell"], "gong": gong.drops["bell"]})
-    fit = Fit(data, fill=0.0)
-    assert fit.texture_of("bell") != fit.texture_of("gong")  # one rings little, the other much
-    assert fit.summary()["textures"]["bell"] == {"texture": fit.texture_of("bell")[0], "fill": 0.0}
-    assert fit.texture_of("new") == (fit.texture, fit.fill)  # no training targets: the dataset's pair
-    table = tabulate(fit)
-    assert table.meta["source"]["textures"] == fit.summary()["textures"]
-    for obj in ("bell", "gong"):
-        # the residual a fit with the object's texture fixed draws (the same centres and pull)
-        fixed = Fit(data, texture=fit.texture_of(obj)[0], fill=0.0)
-        bank = data.banks[obj]
-        table.attach(bank, rebuild="(test)")
-        lo, hi = bank[2], bank[3]
-        np.testing.assert_allclose(fit.bump_residual(obj, lo.velocity, lo.samples, hi.samples, 0.4),
-                                   fixed.bump_residual(obj, lo.velocity, lo.samples, hi.samples, 0.4), rtol=0, atol=1e-12)
-        warp = EnsembleWarpInterpolator(fill=0.0)
-        warp.fitted = fit
-        s = max(np.abs(lo.samples).max(), np.abs(hi.samples).max())
-        for x in np.linspace(lo.velocity, hi.velocity, 7):
-            assert np.abs(table.lookup(lo, hi, float(x)) - warp.interpolate(lo, hi, float(x))).max() <= TOLERANCE * s
 
 
 def test_a_fill_raises_the_centres_quiet_bins_as_at_each_intervals_middle_and_the_table_serves_it_as_small():

@@ -3,12 +3,10 @@ it on data: tests/test_interpolator_ensemble_warp.py)."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
-from hapticfx.interpolators.texture import (FILLS, KEEP_SHARE, TEXTURE_HZ, Target, choose, choose_each, fill, fine,
-                                            keep, label, textured)
+from hapticfx.interpolators.texture import (FILLS, KEEP_SHARE, TEXTURE_HZ, Target, choose, fill, fine, keep,
+                                            textured)
 
 N = 200
 
@@ -113,17 +111,3 @@ def test_a_fill_chosen_with_the_share_is_the_admissible_pair_of_most_expected_cr
     # a fixed share: only the fill is chosen; the first pair (no fill) is always admissible
     (b2, _), fixed = choose(targets, betas=(0.8,), fills=FILLS)
     assert b2 == 0.8 and set(fixed) == {"linear", "0.8", *(f"0.8 fill {f}" for f in FILLS[1:])}
-
-
-def test_each_group_keeps_its_own_share_where_one_for_all_would_cost_the_others():
-    # a: a little ringing the centres lose (detail buys the spectral measures cheaply); b: much, where the same
-    # share costs the drop mean's RMSE dearly
-    targets = [replace(_target(k, 0.3), group="a") for k in range(12)] + \
-        [replace(_target(100 + k, 1.5), group="b") for k in range(12)]
-    start, each, scores = choose_each(targets)
-    assert start == choose(targets)[0]  # the dataset's pair first, as choose takes it
-    assert each["a"][0] > start[0] and each["b"] == (0.0, 0.0)
-    assert scores["each"]["expected_criteria"] > scores[label(*start)]["expected_criteria"]
-    assert scores["each"]["share"] >= KEEP_SHARE
-    assert choose_each([_target(k, 0.3) for k in range(12)])[1] == {}  # no groups: only the dataset's pair
-    assert choose_each([]) == ((0.0, 0.0), {}, {})

@@ -63,10 +63,7 @@ A mean of drops that ring out of phase is duller above about 100 Hz than any
 recorded drop, and on the vibrotactile field's spectral measures it can score below
 linear's blend of two recorded drops, while it is nearest their mean in RMSE.
 ``beta`` trades the one for the other, chosen on the same left-out training
-velocities (:func:`texture_targets`), for the whole dataset and then by each
-object (:func:`~hapticfx.interpolators.texture.choose_each`): where one object's
-drops ring out of phase and the others' do not, it keeps more of the detail
-without the others giving RMSE up for it. With it, and by the same choice, a **fill**:
+velocities (:func:`texture_targets`). With it, and by the same choice, a **fill**:
 the textured centre's bins above 100 Hz quieter than ``g`` times the blend's are
 raised to it in the centre's own phase, and what that adds is moved in time to
 where the blend's fine detail is, ``g`` from
@@ -98,7 +95,7 @@ from . import ensemble
 from .ensemble import EnsembleInterpolator, centres, matching_drops, training_targets
 from .residual import compose, lift, pull, scale
 from .table import VelocityTable, build_table, neighbours
-from .texture import FILLS, TEXTURES, Target, choose_each as choose_textures, filling, keep as keep_texture
+from .texture import FILLS, TEXTURES, Target, choose as choose_texture, filling, keep as keep_texture
 
 if TYPE_CHECKING:
     from .warp import Morph
@@ -314,7 +311,7 @@ def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], po
         for i, w, blend, centre, (mid_blend, mid_centre) in _left_out_targets(o, penalties[obj], paths, pools[obj],
                                                                               middle=True):
             yield Target(w, blend, centre - blend, o.drops[i], o.means[i], o.reps[i], o.rate_hz,
-                         at=(mid_blend, mid_centre - mid_blend), group=obj)
+                         at=(mid_blend, mid_centre - mid_blend))
 
 
 def choose_pull(targets: list[Target], pulls=PULLS) -> tuple[int, dict[int, float]]:
@@ -327,7 +324,7 @@ def choose_pull(targets: list[Target], pulls=PULLS) -> tuple[int, dict[int, floa
 
 class Fit:
     """What the method learned from ``data``: ``trim``, every object's ``penalties`` and drop centres, the
-    dataset's ``texture`` and ``fill`` and each object's own (``textures``, :meth:`texture_of`); the morph of each recorded interval is made on first use. ``trim`` and
+    dataset's ``texture`` and ``fill``; the morph of each recorded interval is made on first use. ``trim`` and
     ``texture`` None: chosen; ``fill`` None: chosen with the texture, from :data:`FILLS`; ``pull`` None: chosen from
     :data:`PULLS` (:func:`choose_pull`), before the texture."""
 
@@ -355,9 +352,8 @@ class Fit:
         targets = list(texture_targets(objects, self.penalties, pools, paths))
         self.pull, self.pull_scores = choose_pull(targets, PULLS if pull is None else (pull,))
         self.texture, self.fill, self.fill_chosen, self.texture_scores = texture, fill, fill is None, None
-        self.textures: dict[str, tuple[float, float]] = {}  # each object's own (texture, fill), where chosen
         if texture is None or fill is None:
-            (self.texture, self.fill), self.textures, self.texture_scores = choose_textures(
+            (self.texture, self.fill), self.texture_scores = choose_texture(
                 [replace(t, lift=float(lift(t.w, self.pull))) for t in targets],
                 betas=TEXTURES if texture is None else (texture,), fills=FILLS if fill is None else (fill,))
         self.centres = {obj: pools[obj](o.velocities, o.centres, o.noise) for obj, o in objects.items()}
@@ -410,24 +406,19 @@ class Fit:
         :func:`~hapticfx.interpolators.residual.lift`): what a table stores, weighing it by the pull at a lookup."""
         i = self._index[(obj, float(v_lo))]
         blend = (1 - w) * lower + w * upper
-        kept = keep_texture(self.morph(obj, i)(w) - blend, self.texture_of(obj)[0], self._rate[obj])
+        kept = keep_texture(self.morph(obj, i)(w) - blend, self.texture, self._rate[obj])
         return (kept + self._fill(obj, i, lower, upper)) / scale(lower, upper)
 
     def _fill(self, obj: str, i: int, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | float:
         """What the fill adds to the centre all along ``obj``'s interval ``i``: its fill at the middle
         (:func:`~hapticfx.interpolators.texture.filling`); 0 without a fill."""
-        beta, g = self.texture_of(obj)
-        if not g:
+        if not self.fill:
             return 0.0
         if (obj, i) not in self._fills:
             blend = 0.5 * (lower + upper)
-            self._fills[(obj, i)] = filling(blend, self.morph(obj, i)(0.5) - blend, beta, g, self._rate[obj])
+            self._fills[(obj, i)] = filling(blend, self.morph(obj, i)(0.5) - blend, self.texture, self.fill,
+                                            self._rate[obj])
         return self._fills[(obj, i)]
-
-    def texture_of(self, obj: str) -> tuple[float, float]:
-        """``obj``'s texture and fill: its own, chosen with the dataset's (an object without training targets
-        takes the dataset's)."""
-        return self.textures.get(obj, (self.texture, self.fill))
 
     def find(self, lower, upper) -> str | None:
         """The object whose recorded neighbours ``lower`` and ``upper`` are (None: not fitted)."""
@@ -444,8 +435,6 @@ class Fit:
             return None if not np.isfinite(p) else p
 
         return {"trim": self.trim, "texture": self.texture, "fill": self.fill, "pull": self.pull,
-                "textures": {obj: {"texture": b, "fill": g} for obj, (b, g) in self.textures.items()},
-                "own_texture_objects": sum(p != (self.texture, self.fill) for p in self.textures.values()),
                 "penalty": {obj: name(p) for obj, p in self.penalties.items()},
                 "pooled_penalty": name(self.pooled_penalty),
                 "warped_objects": sum(bool(np.isfinite(p)) for p in self.penalties.values()),
@@ -480,7 +469,6 @@ def tabulate(fit: Fit, *, progress=None) -> VelocityTable:
     table = build_table(fit.data.banks.values(), residual, interpolator=NAME,
                         source={"trim": fit.trim, "texture": fit.texture,
                                 "fill": CHOOSE if fit.fill_chosen else fit.fill, "pull": fit.pull,
-                                "textures": fit.summary()["textures"],
                                 "penalty": fit.summary()["penalty"],
                                 "shrink": dict(fit.shrink), "smooth": dict(fit.smooth)},
                         dataset=fit.data.dataset, tolerance=TOLERANCE, progress=progress, on_rough=fit.unwarp,
@@ -558,8 +546,6 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
                 "texture": source.get("texture", 0.0),  # none in a table written before the texture
                 "pull": source.get("pull", 2),  # none in a table written before the pull was chosen: the bump
                 "fill": self.table.meta["fit"].get("fill", 0.0),
-                "texture and fill per object": {obj: f"{t['texture']:g}, fill {t['fill']:g}"  # none before rule K
-                                                for obj, t in self.table.meta["fit"].get("textures", {}).items()},
                 "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()},
                 "centres smoothed": {obj: "no" if s is None else s  # none in a table written before smoothing
                                      for obj, s in source.get("smooth", {}).items()}}

@@ -132,7 +132,6 @@ class Target:
     rate_hz: float
     at: tuple[np.ndarray, np.ndarray] | None = None
     lift: float = 1.0
-    group: str | None = None  # the object the target belongs to (:func:`choose_each`)
 
 
 def choose(targets: Iterable[Target], *, betas=TEXTURES, fills=(0.0,)) -> tuple[tuple[float, float], dict]:
@@ -151,98 +150,29 @@ def choose(targets: Iterable[Target], *, betas=TEXTURES, fills=(0.0,)) -> tuple[
     ``g``, breaks a tie. A pair that only just passes on these targets is as likely as not to fail on others, which
     the expectation weighs.
     """
-    pair, _, means = _Choice(targets, betas, fills).best()
-    return pair, means
-
-
-def choose_each(targets: Iterable[Target], *, betas=TEXTURES, fills=(0.0,), passes: int = 3):
-    """:func:`choose`'s pair for the whole dataset, then each group of targets (:attr:`Target.group`: an object)
-    its own pair: ``(pair, {group: pair}, means)``.
-
-    Coordinate ascent from the dataset's pair, the groups in turn, at most ``passes`` times over them: a group
-    takes another pair only where that raises the expected number of criteria met (the same objective and
-    resamples as :func:`choose`, over every target) and the share of the drop mean's gap stays at
-    :data:`KEEP_SHARE` (the dataset's pair for every group always may). Where one object's targets hold most of
-    what a spectral measure misses, it can keep more of the neighbours' detail without the others giving RMSE up
-    for it. ``means["each"]``: the share and expected criteria of the pairs taken.
-    """
-    return _Choice(targets, betas, fills).each(passes)
-
-
-class _Choice:
-    """Every target scored with every pair (:func:`score`) and the bootstrap that weighs a choice of pairs."""
-
-    def __init__(self, targets: Iterable[Target], betas, fills):
-        self.targets = list(targets)
-        self.pairs = [(float(b), float(g)) for b in sorted(betas) for g in sorted(fills)]
-        self.folds, self.floors = score(self.targets, self.pairs)
-        if len(self.floors):
-            lin = self.folds["linear"]
-            self.idx = np.random.default_rng(0).integers(0, len(self.floors), size=(BOOTSTRAP, len(self.floors)))
-            self.lin_boot, self.floor_boot = lin[self.idx].sum(axis=1), self.floors[self.idx].sum(axis=1)
-            self.gap = lin[:, 3].sum() - self.floors[:, 0].sum()
-
-    def share(self, rows: np.ndarray) -> float:
-        """The share of the gap between linear and the drop means' floor that ``rows`` (targets, 5) keep."""
-        lin = self.folds["linear"]
-        return float((lin[:, 3].sum() - rows[:, 3].sum()) / self.gap) if self.gap > 0 else float("nan")
-
-    def expected(self, rows: np.ndarray) -> float:
-        """The bench's four criteria that ``rows`` meet, in expectation over the resamples."""
-        got = rows[self.idx].sum(axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            shares = (self.lin_boot[:, 3:5] - got[:, 3:5]) / (self.lin_boot[:, 3:5] - self.floor_boot)
-        passed = (np.sum(shares >= KEEP_SHARE, axis=1) + (got[:, 0] <= self.lin_boot[:, 0])
-                  + ((got[:, 1] >= self.lin_boot[:, 1]) & (got[:, 2] >= self.lin_boot[:, 2])))
-        return round(float(np.mean(passed)), 9)
-
-    def best(self):
-        """The dataset's pair (:func:`choose`), no group's own, and each pair's mean scores."""
-        if not len(self.floors):
-            return self.pairs[0], {}, {}
-        means = {}
-        for b, v in self.folds.items():
-            m = dict(zip(MEASURES, v.mean(axis=0).tolist()))
-            m["share"] = self.share(v)
-            if b != "linear":
-                m["expected_criteria"] = self.expected(v)
-            means["linear" if b == "linear" else label(*b)] = m
-        admissible = [p for p in self.pairs if p == self.pairs[0] or means[label(*p)]["share"] >= KEEP_SHARE]
-        top = max(means[label(*p)]["expected_criteria"] for p in admissible)
-        return next(p for p in admissible if means[label(*p)]["expected_criteria"] == top), {}, means
-
-    def each(self, passes: int):
-        """:func:`choose_each`."""
-        start, _, means = self.best()
-        groups = [t.group for t in self.targets]
-        keys = sorted({g for g in groups if g is not None})
-        if not keys:
-            return start, {}, means
-        member = {k: np.array([g == k for g in groups]) for k in keys}
-
-        def rows(assigned):
-            out = self.folds[start].copy()
-            for k, p in assigned.items():
-                out[member[k]] = self.folds[p][member[k]]
-            return out
-
-        assigned = {k: start for k in keys}
-        current = means[label(*start)]["expected_criteria"]
-        for _ in range(passes):
-            moved = False
-            for k in keys:
-                for p in self.pairs:
-                    if p == assigned[k]:
-                        continue
-                    trial = {**assigned, k: p}
-                    r = rows(trial)
-                    if (self.share(r) >= KEEP_SHARE or all(q == start for q in trial.values())) \
-                            and self.expected(r) > current:
-                        assigned, current, moved = trial, self.expected(r), True
-            if not moved:
-                break
-        means["each"] = {"share": self.share(rows(assigned)), "expected_criteria": current}
-        return start, assigned, means
+    pairs = [(float(b), float(g)) for b in sorted(betas) for g in sorted(fills)]
+    folds, floors = score(targets, pairs)
+    if not len(floors):
+        return pairs[0], {}
+    lin = folds["linear"]
+    idx = np.random.default_rng(0).integers(0, len(floors), size=(BOOTSTRAP, len(floors)))
+    lin_boot, floor_boot = lin[idx].sum(axis=1), floors[idx].sum(axis=1)
+    gap = lin[:, 3].sum() - floors[:, 0].sum()
+    means = {}
+    for b, v in folds.items():
+        m = dict(zip(MEASURES, v.mean(axis=0).tolist()))
+        m["share"] = float((lin[:, 3].sum() - v[:, 3].sum()) / gap) if gap > 0 else float("nan")
+        if b != "linear":
+            got = v[idx].sum(axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                shares = (lin_boot[:, 3:5] - got[:, 3:5]) / (lin_boot[:, 3:5] - floor_boot)
+            passed = (np.sum(shares >= KEEP_SHARE, axis=1) + (got[:, 0] <= lin_boot[:, 0])
+                      + ((got[:, 1] >= lin_boot[:, 1]) & (got[:, 2] >= lin_boot[:, 2])))
+            m["expected_criteria"] = float(np.mean(passed))
+        means["linear" if b == "linear" else label(*b)] = m
+    admissible = [p for p in pairs if p == pairs[0] or means[label(*p)]["share"] >= KEEP_SHARE]
+    best = max(round(means[label(*p)]["expected_criteria"], 9) for p in admissible)
+    return next(p for p in admissible if round(means[label(*p)]["expected_criteria"], 9) == best), means
 
 
 def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) -> tuple[dict, np.ndarray]:
@@ -275,5 +205,5 @@ def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) ->
     return {b: np.array(v) for b, v in rows.items()}, np.array(floors)
 
 
-__all__ = ["Target", "choose", "choose_each", "envelope", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP",
+__all__ = ["Target", "choose", "envelope", "fill", "filling", "fine", "keep", "label", "score", "textured", "BOOTSTRAP",
            "FILLS", "FILL_FRAME_S", "KEEP_SHARE", "MEASURES", "TEXTURE_HZ", "TEXTURES"]
