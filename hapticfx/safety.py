@@ -160,7 +160,7 @@ class SafetyLimiter:
             if not keep:
                 self._tail = np.zeros(0)
             elif flat.size >= keep:  # a copy: the caller owns the output
-                self._tail = np.array(flat[-keep:], dtype=np.float64)
+                self._tail = flat[-keep:].copy()
             else:
                 self._tail = np.concatenate([self._tail, flat])[-keep:]
         return x
@@ -251,7 +251,7 @@ class SafetyLimiter:
             if total <= budget:
                 continue
             if sq is None:
-                sq = np.concatenate(pieces)
+                sq = pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
             # Cheap bound first: a window touches at most `reach` consecutive blocks of win/8 samples.
             size = max(1, win // 8)
             full = sq.size // size * size
