@@ -8,9 +8,8 @@ import pytest
 from hapticfx.data.bank import ProfileBank
 from hapticfx.errors import SignalError
 from hapticfx.interfaces import Profile, TrainingData
-from hapticfx.interpolators.ensemble_warp import (BAND_EDGES, BANDS, SMOOTHING, TOLERANCE, EnsembleWarpInterpolator,
-                                                  Fit, band_parts, band_smoothed_centres, jackknife_noise,
-                                                  shrunk_centres, smoothed_centres, tabulate)
+from hapticfx.interpolators.ensemble_warp import (SMOOTHING, TOLERANCE, EnsembleWarpInterpolator, Fit,
+                                                 jackknife_noise, shrunk_centres, smoothed_centres, tabulate)
 from hapticfx.interpolators.texture import KEEP_SHARE, TEXTURE_HZ, filling, label
 from hapticfx.interpolators.residual import bump, scale
 from hapticfx.interpolators.warp import Morph, displacement, warp_path
@@ -133,60 +132,21 @@ def test_shrinking_is_chosen_where_noise_dominates_and_brings_the_centres_nearer
     assert not Fit(_data(12.0, noise=0.003)).shrink["brick"]
 
 
-def test_smoothing_across_velocity_is_chosen_for_a_noisy_still_object_and_one_strength_never_for_a_warped_one():
+def test_smoothing_across_velocity_is_chosen_for_a_noisy_still_object_and_never_for_a_warped_one():
     # the same 3 noisy drops of a profile linear in velocity: a smooth curve through every centre pools all of
     # them, nearer the noise-free profiles (float64) than shrinking toward two neighbours
     data = _data(0.0, velocities=tuple(np.linspace(2.0, 5.0, 9)), drops=3, noise=0.1)
     fit = Fit(data)
-    assert fit.smooth["brick"] is not None and fit.summary()["smoothed_objects"] == 1  # one strength or per band
+    assert fit.smooth["brick"] in SMOOTHING and fit.summary()["smoothed_objects"] == 1
     v, drops = data.drops["brick"]
     truth = _truth(0.0, v)
     shrunk = shrunk_centres(v, drops.mean(axis=1), jackknife_noise(drops, fit.trim), fit.penalties["brick"])
     err = lambda c: np.sqrt(np.mean((c - truth) ** 2))  # noqa: E731
     assert err(fit.centres["brick"]) < 0.8 * err(shrunk)
-    option = BANDS if isinstance(fit.smooth["brick"], list) else fit.smooth["brick"]
-    assert fit.smooth_scores["brick"][option] < fit.smooth_scores["brick"][None]
-    moving = Fit(_two_objects())  # the bouncing object is warped: one strength in raw time would blur its bounce
-    assert np.isfinite(moving.penalties["moving"]) and moving.smooth["moving"] is None  # its bands score worse
-    assert set(moving.smooth_scores["moving"]) == {None, BANDS}
-
-
-def test_each_band_is_smoothed_as_its_own_noise_asks_where_the_pulse_changes_fast_and_the_ringing_is_noise():
-    # 3 drops a velocity: a slow pulse whose height swings with velocity (below 100 Hz; the drops agree) and
-    # ringing at 180-260 Hz of random phase (a 3-drop mean keeps much of it, the population mean none): the
-    # pulse wants no smoother, the ringing one near the straight line; one strength for both is worse
-    rng = np.random.default_rng(4)
-    v = np.linspace(2.0, 4.4, 9)
-    t = np.arange(N) / 1000.0
-    pulse = np.stack([_pulse(30, width=10.0, height=2 + np.sin(3 * x)) for x in v])
-    ring = [[0.5 * np.sin(2 * np.pi * rng.uniform(180, 260) * t + rng.uniform(0, 2 * np.pi))
-             * np.exp(-np.maximum(t - 0.03, 0) / 0.04) * (t > 0.02) for _ in range(3)] for _ in v]
-    d = pulse[:, None, :] + np.array(ring)
-    data = TrainingData({"bell": ProfileBank("bell", "max-min", 1000.0, v, d[:, 0].copy())}, "max-min", "synthetic",
-                        {"bell": (v, d)})
-    fit = Fit(data, texture=0.0, fill=0.0)
-    strengths = fit.smooth["bell"]
-    assert isinstance(strengths, list) and len(strengths) == len(BAND_EDGES) + 1
-    assert strengths[0] < 1e-3 <= 0.1 <= max(strengths[1:])
-    err = lambda c: np.sqrt(np.mean((c - pulse) ** 2))  # noqa: E731  (against the noise-free profiles, float64)
-    raw = d.mean(axis=1)
-    assert err(fit.centres["bell"]) < 0.8 * min(err(smoothed_centres(v, raw, s)) for s in SMOOTHING)
-    assert fit.smooth_scores["bell"][BANDS] < min(fit.smooth_scores["bell"][s] for s in (None, *SMOOTHING))
-    assert fit.summary()["smoothed_objects"] == 1
-
-
-def test_band_parts_add_up_to_the_signal_and_smoothing_every_band_alike_is_smoothing_it_whole():
-    rng = np.random.default_rng(5)
-    v, c = np.linspace(2.0, 4.0, 7), rng.standard_normal((7, N))
-    parts = band_parts(c, 1000.0)
-    assert len(parts) == len(BAND_EDGES) + 1
-    assert np.allclose(sum(parts), c, rtol=0, atol=1e-12)
-    t = np.arange(N) / 1000.0
-    for hz, band in ((40.0, 0), (150.0, 1), (320.0, 2)):  # a tone far from the crossovers lies in its own band
-        energy = [np.sum(p**2) for p in band_parts(np.sin(2 * np.pi * hz * t), 1000.0)]
-        assert energy[band] > 0.97 * sum(energy)
-    for s in (0.0, 1e-3, 1.0):
-        assert np.allclose(band_smoothed_centres(v, c, [s] * 3, 1000.0), smoothed_centres(v, c, s), rtol=0, atol=1e-9)
+    assert fit.smooth_scores["brick"][fit.smooth["brick"]] < fit.smooth_scores["brick"][None]
+    moving = Fit(_two_objects())  # the bouncing object is warped: a smoother in raw time would blur its bounce
+    assert np.isfinite(moving.penalties["moving"]) and moving.smooth["moving"] is None
+    assert "moving" not in moving.smooth_scores
 
 
 def test_centres_without_a_velocity_are_pooled_as_if_it_had_not_been_recorded():
@@ -198,14 +158,11 @@ def test_centres_without_a_velocity_are_pooled_as_if_it_had_not_been_recorded():
     fit = Fit(data)
     v, drops = data.drops["brick"]
     raw = centres(drops, fit.trim)
-    smooth = fit.smooth["brick"]
     for i in (1, 4, 7):
         keep = np.arange(len(v)) != i
         without = fit.centres_without("brick", i)
         assert without.shape == (len(v) - 1, N)
-        again = band_smoothed_centres(v[keep], raw[keep], smooth, 1000.0) if isinstance(smooth, list) \
-            else smoothed_centres(v[keep], raw[keep], smooth)
-        assert np.allclose(without, again, rtol=0, atol=1e-12)
+        assert np.allclose(without, smoothed_centres(v[keep], raw[keep], fit.smooth["brick"]), rtol=0, atol=1e-12)
         assert not np.allclose(without, fit.centres["brick"][keep])  # velocity i's drops are not in them
     clean = Fit(_data(12.0, noise=0.003))  # warped, not shrunk: the centres as they are
     v, drops = clean.data.drops["brick"]
@@ -359,8 +316,7 @@ def test_a_dataset_carries_its_table_and_an_effect_without_one_fits_it_when_it_l
     assert said["served_from"]["table"] == str(table_path(ds.path, "max-min"))
     assert said["warp penalty"]["wood-beam"] in ("none", 0.01, 0.03)
     assert said["centres shrunk"]["wood-beam"] in ("yes", "no")
-    smoothed = said["centres smoothed"]["wood-beam"]
-    assert smoothed in ("no", *SMOOTHING) or smoothed.startswith("per band ")
+    assert said["centres smoothed"]["wood-beam"] in ("no", *SMOOTHING)
     table_path(ds.path, "max-min").unlink()
     fitted = model()
     assert fitted.describe()["served_from"]["interpolator"] == "ensemble-warp"

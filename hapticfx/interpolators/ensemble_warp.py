@@ -36,18 +36,13 @@ drops), an empirical-Bayes smoother across velocity that pools the drops of
 four recorded velocities into each interval instead of two. Where the profile
 changes faster than the noise (many drops, sparse velocities) it is left out.
 
-Last, for each object: whether its centres are instead **smoothed** across every
-recorded velocity (:func:`smoothed_centres`, a Whittaker smoother) and how strongly,
-from :data:`SMOOTHING` (only where the warp was left out: events stay put as velocity
-changes), or **band by band** (:func:`band_smoothed_centres`: below 100 Hz,
-100-200 Hz and above, each at its own strength from :data:`BAND_SMOOTHING`, chosen by
-that band's left-out error). Shrinking pools the drops of four velocities into an
-interval; a smooth curve through every centre pools them all, at the cost of bending
-where the profile changes fast, which the same leave-one-out choice weighs. The main
-pulse changes fast with velocity and its drops agree; what rings above 100 Hz is, in a
-mean of few drops, mostly their disagreement, best pooled by a curve near the straight
-line. One strength is not offered where a warp was chosen (a smoother in raw time
-blurs events that move); the bands are.
+Last, for each object the warp left out (one whose events stay put as velocity
+changes): whether its centres are instead **smoothed** across every recorded
+velocity (:func:`smoothed_centres`, a Whittaker smoother) and how strongly, from
+:data:`SMOOTHING`. Shrinking pools the drops of four velocities into an interval;
+a smooth curve through every centre pools them all, at the cost of bending where
+the profile changes fast, which the same leave-one-out choice weighs. It is not
+offered where a warp was chosen: a smoother in raw time blurs events that move.
 
 Then, for the whole dataset: how strongly the profile is **pulled** toward the
 centre, ``1 - |1 - 2w|^p`` with ``p`` from :data:`PULLS` (2: the bump above),
@@ -192,48 +187,6 @@ def smoothed_centres(velocities: np.ndarray, c: np.ndarray, strength: float) -> 
     return np.linalg.solve(np.eye(n) + strength * d2.T @ d2, x)
 
 
-BAND_EDGES = (100.0, 200.0)  # Hz: the bands below, between and above are smoothed each at its own strength
-BAND_WIDTH = 20.0  # Hz either side of an edge: a raised-cosine crossover
-BAND_SMOOTHING = (0.0, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)  # each band's Whittaker penalty; 0: as it is
-BANDS = "bands"  # the smoothing option whose strength is chosen band by band
-
-
-def band_parts(x: np.ndarray, rate_hz: float) -> list[np.ndarray]:
-    """``x`` ``(..., N)`` split into the bands of :data:`BAND_EDGES` (raised-cosine crossovers :data:`BAND_WIDTH` Hz
-    either side, on a spectrum padded to twice the length); the parts sum to ``x``."""
-    n = x.shape[-1]
-    f = np.fft.rfftfreq(2 * n, 1 / rate_hz)
-    below = [0.5 * (1 + np.cos(np.pi * np.clip((f - e + BAND_WIDTH) / (2 * BAND_WIDTH), 0, 1))) for e in BAND_EDGES]
-    masks = [below[0], *(b - a for a, b in zip(below, below[1:])), 1 - below[-1]]
-    spectrum = np.fft.rfft(x, 2 * n, axis=-1)
-    return [np.fft.irfft(spectrum * m, 2 * n, axis=-1)[..., :n] for m in masks]
-
-
-def band_smoothed_centres(velocities: np.ndarray, c: np.ndarray, strengths, rate_hz: float) -> np.ndarray:
-    """The centres ``c`` ``(V, N)`` smoothed across velocity band by band (:func:`band_parts`), band ``k`` by
-    :func:`smoothed_centres` at ``strengths[k]`` (0: as it is)."""
-    return sum(smoothed_centres(velocities, part, s) if s else part
-               for part, s in zip(band_parts(np.asarray(c, dtype=np.float64), rate_hz), strengths))
-
-
-def choose_band_strengths(o: _Object) -> list[float]:
-    """Each band's smoothing strength for ``o``: the one of :data:`BAND_SMOOTHING` whose left-out predictions of
-    that band, the blend of its neighbours' (no warp: the blend of two centres is the blend of their bands), come
-    nearest the same band of the targets' drop means (mean square error, which adds over bands); all 0 with no
-    training targets."""
-    errors = np.zeros((len(BAND_EDGES) + 1, len(BAND_SMOOTHING)))
-    for i in o.scored:
-        keep = np.arange(len(o.velocities)) != i
-        v = o.velocities[keep]
-        w = float((o.velocities[i] - v[i - 1]) / (v[i] - v[i - 1]))  # in the kept arrays, i's neighbours: i - 1, i
-        for b, (part, target) in enumerate(zip(band_parts(o.centres[keep], o.rate_hz),
-                                               band_parts(o.means[i], o.rate_hz))):
-            for k, s in enumerate(BAND_SMOOTHING):
-                pooled = smoothed_centres(v, part, s) if s else part
-                errors[b, k] += np.mean(((1 - w) * pooled[i - 1] + w * pooled[i] - target) ** 2)
-    return [BAND_SMOOTHING[k] for k in errors.argmin(axis=1)]
-
-
 def _blend_and_centre(reps, c, velocities, lo: int, hi: int, v: float, penalty: float, paths: dict):
     """At ``v`` between the neighbours ``lo`` and ``hi``: ``w``, the blend of the representatives ``reps`` and the
     morph of the centres ``c``."""
@@ -273,13 +226,11 @@ def _objects(data: TrainingData, trim: float) -> dict[str, _Object]:
 
 def _choose(scores: dict, options: tuple, fallback):
     """Per object its option with the lowest mean score when it has :data:`MIN_FOLDS` folds, else the pooled
-    option (best over every object's folds, among the options every object was offered; ``fallback`` with none);
-    the pooled option; the mean scores. An object is offered the options its scores hold, in ``options``' order."""
-    common = [o for o in options if all(o in own for own in scores.values())]
-    pooled_scores = {o: [x for own in scores.values() for x in own[o]] for o in common}
-    pooled = min(common, key=lambda o: np.mean(pooled_scores[o])) if pooled_scores[common[0]] else fallback
-    chosen = {obj: min((o for o in options if o in own), key=lambda o: np.mean(own[o]))
-              if len(next(iter(own.values()))) >= MIN_FOLDS else pooled for obj, own in scores.items()}
+    option (best over every object's folds; ``fallback`` with none); the pooled option; the mean scores."""
+    pooled_scores = {o: [x for own in scores.values() for x in own[o]] for o in options}
+    pooled = min(options, key=lambda o: np.mean(pooled_scores[o])) if pooled_scores[options[0]] else fallback
+    chosen = {obj: min(options, key=lambda o: np.mean(own[o])) if len(own[options[0]]) >= MIN_FOLDS else pooled
+              for obj, own in scores.items()}
     means = {obj: {o: float(np.mean(v)) for o, v in own.items()} for obj, own in scores.items() if own[options[0]]}
     return chosen, pooled, means
 
@@ -335,30 +286,21 @@ def choose_shrink(objects: dict[str, _Object], penalties: dict[str, float],
 
 def choose_smoothing(objects: dict[str, _Object], penalties: dict[str, float], shrink: dict[str, bool],
                      shrink_folds: dict[str, dict[bool, list[float]]], paths: dict):
-    """Whether each object has its centres smoothed and how: ``None`` (not; the centres as :func:`choose_shrink`
-    left them), a strength (:func:`smoothed_centres`; only an object the warp left out) or a list of one strength
-    per band (:func:`band_smoothed_centres`, :func:`choose_band_strengths`); the pooled choice, and the mean
-    scores (the band option's under :data:`BANDS`).
+    """Whether each object the warp left out has its centres smoothed (:func:`smoothed_centres`) and how strongly
+    (``None``: not; the centres as :func:`choose_shrink` left them), the pooled choice, and the mean scores.
 
-    Each training target left out is predicted, with the object's penalty, from the smoothed centres of the
-    velocities that remain, as :func:`choose_shrink` scores. A warped object is offered no single strength (a
-    smoother in raw time blurs events that move, and the main pulse is where they are): only its bands, whose
-    strengths are chosen as if it were not warped. The pooled choice is among the options every object was
-    offered; an object that takes it and it is :data:`BANDS` smooths its bands at the strengths its own targets
-    choose (all 0 without targets).
+    Each training target left out is predicted from the smoothed centres of the velocities that remain, as
+    :func:`choose_shrink` scores; a warped object is not smoothed.
     """
-    scores, strengths = {}, {}
+    scores = {}
     for obj, o in objects.items():
-        strengths[obj] = choose_band_strengths(o)
-        scores[obj] = {None: shrink_folds[obj][shrink[obj]]}
-        if not np.isfinite(penalties[obj]):
-            scores[obj].update({s: _left_out(o, penalties[obj], paths, lambda v, c, _, s=s: smoothed_centres(v, c, s))
-                                for s in SMOOTHING})
-        scores[obj][BANDS] = _left_out(o, penalties[obj], paths, lambda v, c, _, b=strengths[obj], r=o.rate_hz:
-                                       band_smoothed_centres(v, c, b, r))
-    chosen, pooled, means = _choose(scores, (None, *SMOOTHING, BANDS), None)
-    return ({obj: strengths[obj] if chosen.get(obj) == BANDS else chosen.get(obj) for obj in objects},
-            pooled, means)
+        if np.isfinite(penalties[obj]):
+            continue
+        scores[obj] = {None: shrink_folds[obj][shrink[obj]],
+                       **{s: _left_out(o, penalties[obj], paths, lambda v, c, _, s=s: smoothed_centres(v, c, s))
+                          for s in SMOOTHING}}
+    chosen, pooled, means = _choose(scores, (None, *SMOOTHING), None)
+    return {obj: chosen.get(obj) for obj in objects}, pooled, means
 
 
 def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], pools: dict, paths: dict):
@@ -406,7 +348,7 @@ class Fit:
                                                                                           folds, paths)
         self.smooth, self.pooled_smooth, self.smooth_scores = choose_smoothing(objects, self.penalties, self.shrink,
                                                                                shrink_folds, paths)
-        pools = {obj: self._pool(obj, paths, o.rate_hz) for obj, o in objects.items()}
+        pools = {obj: self._pool(obj, paths) for obj in objects}
         targets = list(texture_targets(objects, self.penalties, pools, paths))
         self.pull, self.pull_scores = choose_pull(targets, PULLS if pull is None else (pull,))
         self.texture, self.fill, self.fill_chosen, self.texture_scores = texture, fill, fill is None, None
@@ -429,11 +371,9 @@ class Fit:
         keep = np.arange(len(o.velocities)) != i
         return self._pools[obj](o.velocities[keep], o.centres[keep], o.noise[keep])
 
-    def _pool(self, obj: str, paths: dict, rate_hz: float):
-        """How ``obj``'s choices pool its centres, as ``pool(velocities, centres, noise)``: smoothed (band by band
-        or as one), shrunk or as they are."""
-        if isinstance(self.smooth[obj], list):
-            return lambda v, c, noise: band_smoothed_centres(v, c, self.smooth[obj], rate_hz)
+    def _pool(self, obj: str, paths: dict):
+        """How ``obj``'s choices pool its centres, as ``pool(velocities, centres, noise)``: smoothed, shrunk or
+        as they are."""
         if self.smooth[obj] is not None:
             return lambda v, c, noise: smoothed_centres(v, c, self.smooth[obj])
         if self.shrink[obj]:
@@ -607,12 +547,10 @@ class EnsembleWarpInterpolator(EnsembleInterpolator):
                 "pull": source.get("pull", 2),  # none in a table written before the pull was chosen: the bump
                 "fill": self.table.meta["fit"].get("fill", 0.0),
                 "centres shrunk": {obj: "yes" if shrunk else "no" for obj, shrunk in source["shrink"].items()},
-                "centres smoothed": {obj: "no" if s is None else  # none in a table written before smoothing
-                                     "per band " + " / ".join(f"{x:g}" for x in s) if isinstance(s, list) else s
+                "centres smoothed": {obj: "no" if s is None else s  # none in a table written before smoothing
                                      for obj, s in source.get("smooth", {}).items()}}
 
 
 __all__ = ["EnsembleWarpInterpolator", "Fit", "choose_pull", "choose_shrink", "choose_smoothing", "fit_table",
            "jackknife_noise", "morph", "penalty_folds", "shrunk_centres", "smoothed_centres", "tabulate", "table_path",
-           "texture_targets", "band_parts", "band_smoothed_centres", "choose_band_strengths", "BANDS", "BAND_EDGES",
-           "BAND_SMOOTHING", "CHOOSE", "MIN_FOLDS", "PENALTIES", "PULLS", "SHRINK", "SMOOTHING", "TOLERANCE"]
+           "texture_targets", "CHOOSE", "MIN_FOLDS", "PENALTIES", "PULLS", "SHRINK", "SMOOTHING", "TOLERANCE"]
