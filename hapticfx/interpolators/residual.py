@@ -33,8 +33,9 @@ def scale(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
 
 
 def bump(w):
-    """``4 w (1 - w)``: zero at both neighbours, one halfway."""
-    w = np.asarray(w, dtype=np.float64)
+    """``4 w (1 - w)``: zero at both neighbours, one halfway. A float ``w`` (a table's lookup, once per impact) is
+    computed in plain floats: no array is made."""
+    w = w if isinstance(w, float) else np.asarray(w, dtype=np.float64)
     return 4.0 * w * (1.0 - w)
 
 
@@ -56,8 +57,8 @@ def lift(w, p: int):
 
 def pull(w, p: int = 2):
     """``1 - |1 - 2w|^p`` (an even ``p``): :func:`bump` times :func:`lift`; the bump itself for ``p = 2``. A float
-    ``w`` (a table's lookup, once per impact) is computed in plain floats: no array is made."""
-    return (4.0 * w * (1.0 - w) if isinstance(w, float) else bump(w)) * lift(w, p)
+    ``w`` gives a float."""
+    return bump(w) * lift(w, p)
 
 
 def compose(lower: np.ndarray, upper: np.ndarray, w, residual: np.ndarray) -> np.ndarray:
