@@ -462,8 +462,7 @@ def test_a_fill_chosen_with_the_texture_is_the_admissible_pair_of_most_expected_
     scores = fit.texture_scores
     assert fit.fill_chosen and {k for k in scores if "fill" in k} == {f"{b} fill {g}" for b in (0.0, 0.2, 0.4, 0.6, 0.8)
                                                                       for g in (0.25, 0.5, 0.75)}
-    short = scores["0.0"]["share"] < KEEP_SHARE  # every pair is admissible where the centre misses the bar
-    admissible = [k for k in scores if k != "linear" and (short or k == "0.0" or scores[k]["share"] >= KEEP_SHARE)]
+    admissible = [k for k in scores if k != "linear" and (k == "0.0" or scores[k]["share"] >= KEEP_SHARE)]
     best = max(scores[k]["expected_criteria"] for k in admissible)
     assert scores[label(fit.texture, fit.fill)]["expected_criteria"] == best
     assert tabulate(fit).meta["source"]["fill"] == "choose" and fit.summary()["fill"] == fit.fill
