@@ -33,7 +33,7 @@ def ceiling(
     """What the drop-mean measure of `bench interpolators` leaves to win: for every interior velocity of a dense
     set, linear, the morph of the neighbours' population means (the change between velocities a blend does not
     follow), of their recorded means (that and their noise) and of a method fitted to the recorded drops alone, in
-    floors squared, and the gap shares they imply. See docs/neural.md."""
+    floors squared, and the gap shares they imply. See docs/interpolation.md."""
     import numpy as np
 
     from ..data.training import recorded_drops

@@ -20,7 +20,7 @@ def texture(
                                       help="Also score each share with a spectral fill on top, as ensemble-warp "
                                            "fills: every bin above 100 Hz raised to G times linear's magnitude "
                                            "where lower, in phase, moved to where linear's fine detail is (repeat "
-                                           "for several; docs/neural.md)."),
+                                           "for several; docs/interpolation.md)."),
     out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE", help="Also write the tables and every "
                                        "fold as JSON."),
 ):
@@ -29,7 +29,7 @@ def texture(
     (gap shares to the drop mean's and the representative's floors; LSD, ST-SIM, SPQI against every drop, as
     ratios to linear) and the criteria it meets. Where no share meets all four, no method of the residual form
     does by a better centre alone. The last row is a recorded drop of the velocity, each scored against the
-    others on the spectral measures: where it is worse than linear, so are the recordings. See docs/neural.md."""
+    others on the spectral measures: where it is worse than linear, so are the recordings. See docs/interpolation.md."""
     from ..evaluation.heldout import open_with_bank
     from ..evaluation.texture_ceiling import dataset_folds, recorded, summarise
     from ..timing import table
