@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -546,6 +548,9 @@ def test_the_pull_is_chosen_flatter_where_targets_lie_off_the_middle_and_the_tab
     assert choose_pull([target(0.2), target(0.7)])[0] == 6
     chosen, scores = choose_pull([target(0.5)])
     assert chosen == 2 and len(set(scores.values())) == 1  # a tie: the least
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no mean of nothing: a set without interior training velocities
+        assert choose_pull([]) == (2, {}) and choose_pull([], (4,)) == (4, {})
 
     # irregular spacing and noisy drops: targets far from halfway, the pull is chosen flatter than the bump
     data = _data(0.0, velocities=(2.0, 2.15, 2.9, 3.05, 3.8, 3.95, 4.7), drops=4, noise=0.3, seed=5)

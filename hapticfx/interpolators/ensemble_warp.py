@@ -316,7 +316,10 @@ def texture_targets(objects: dict[str, _Object], penalties: dict[str, float], po
 
 def choose_pull(targets: list[Target], pulls=PULLS) -> tuple[int, dict[int, float]]:
     """The pull ``p`` (:func:`~hapticfx.interpolators.residual.lift`) whose profiles, at every left-out training
-    target, come nearest its drop mean (mean RMSE; the least ``p`` on a tie), and each ``p``'s mean RMSE."""
+    target, come nearest its drop mean (mean RMSE; the least ``p`` on a tie), and each ``p``'s mean RMSE. With no
+    targets (no object has an interior training velocity) the least ``p``, and no scores."""
+    if not targets:
+        return min(pulls), {}
     scores = {p: float(np.mean([_rmse(t.blend + pull(t.w, p) * t.diff, t.mean) for t in targets]))
               for p in pulls}
     return min(pulls, key=lambda p: (scores[p], p)), scores
