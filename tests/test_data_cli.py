@@ -43,6 +43,7 @@ def test_record_import_info_plot_pick_end_to_end(tmp_path, capsys):
     code, out, err = run(capsys, "data", "import", *sorted(rec.glob("*.csv")), "--out", ds_path,
                          "--sensor", "model=ADXL335", "--sensor", "board=GY-61")
     assert code == 0, err
+    assert "note: fewer than 5 drops a velocity: wood-beam (2);" in err  # 2 drops a velocity: said, not refused
     ds = open_dataset(ds_path)
     assert ds.meta["sensor"] == {"model": "ADXL335", "board": "GY-61"}
     assert ds.bank("wood-beam", "max-min").velocities.tolist() == pytest.approx([np.sqrt(2 * 9.80665 * h) for h in (0.3, 0.6)])
@@ -60,6 +61,16 @@ def test_record_import_info_plot_pick_end_to_end(tmp_path, capsys):
     code, out, err = run(capsys, "data", "plot", "wood-beam", "--dataset", ds_path, "--out", png)
     assert code == 0, err
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_info_notes_objects_with_fewer_than_five_drops_a_velocity(dataset, tmp_path, capsys):
+    code, out, _ = run(capsys, "data", "info", dataset)
+    assert code == 0 and "note: fewer than 5 drops a velocity: steel-plate (4), wood-beam (4);" in out
+    recs = [toy_recordings(PAPER_OBJECTS["wood-beam"], [2.42, 3.13, 3.96], drops=5, seed=0)]
+    five = build_dataset(tmp_path / "five", recs, name="five", rate_hz=1000.0, sensor={"model": "synthetic"},
+                         provenance={"source": "test"})
+    code, out, _ = run(capsys, "data", "info", five)
+    assert code == 0 and "x 5 drops" in out and "note:" not in out
 
 
 def test_bench_reducers_prints_table4_and_timings(dataset, capsys):

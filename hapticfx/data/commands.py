@@ -12,6 +12,19 @@ from ..errors import DatasetError
 from ..progress import say
 
 DEFAULT_DATASET = "builtin:helmet-drops"
+FEW_DROPS = 5  # drops a velocity under which a velocity's mean is mostly sampling noise (docs/data.md)
+
+
+def few_drops(meta: dict) -> str | None:
+    """A one-line note naming the objects of a dataset's ``meta`` with fewer than :data:`FEW_DROPS` drops a
+    velocity, or None."""
+    few = [f"{obj} ({o['n_drops']})" for obj, o in meta.get("objects", {}).items()
+           if isinstance(o.get("n_drops"), int) and o["n_drops"] < FEW_DROPS]
+    if not few:
+        return None
+    return (f"fewer than {FEW_DROPS} drops a velocity: {', '.join(few)}; the data-driven models interpolate from each "
+            "velocity's mean of drops, and with so few its error is mostly sampling noise: record 5 or more, 10 as the "
+            "paper does (docs/data.md, \"How many drops\")")
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:
@@ -41,6 +54,7 @@ def import_(
     Every bad row is reported with its line number; nothing is written unless all is good.
     """
     from .csv_import import import_csv
+    from .dataset import open_dataset
 
     masses = {}
     for k, v in _pairs(mass, "--mass").items():
@@ -50,6 +64,9 @@ def import_(
             raise DatasetError(f"--mass {k}={v}: the mass must be a number in kg") from None
     path = import_csv(files, out, name=name, sensor=_pairs(sensor, "--sensor") or None, masses=masses,
                       overwrite=force, progress=say)
+    note = few_drops(open_dataset(path).meta)
+    if note:
+        say(f"note: {note}")
     typer.echo(str(path))
 
 
@@ -134,6 +151,7 @@ def info(
         "reducers": ds.reducers() or ["none"],
         "sensor": m.get("sensor", {}).get("model", "-"),
         "objects": objects,
+        **({"note": note} if (note := few_drops(m)) else {}),
     }, as_json=False)
 
 
