@@ -18,13 +18,13 @@ FEW_DROPS = 5  # drops a velocity under which a velocity's mean is mostly sampli
 def few_drops(meta: dict) -> str | None:
     """A one-line note naming the objects of a dataset's ``meta`` with fewer than :data:`FEW_DROPS` drops a
     velocity, or None."""
-    few = [f"{obj} ({o['n_drops']})" for obj, o in meta.get("objects", {}).items()
+    few = [f"{obj} ({o['n_drops']})" for obj, o in meta["objects"].items()
            if isinstance(o.get("n_drops"), int) and o["n_drops"] < FEW_DROPS]
     if not few:
         return None
     return (f"fewer than {FEW_DROPS} drops a velocity: {', '.join(few)}; the data-driven models interpolate from each "
-            "velocity's mean of drops, and with so few its error is mostly sampling noise: record 5 or more, 10 as the "
-            "paper does (docs/data.md, \"How many drops\")")
+            "velocity's mean of drops, and with so few its error is mostly sampling noise: record "
+            f"{FEW_DROPS} or more, 10 as the paper does (docs/data.md, \"How many drops\")")
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:
