@@ -243,8 +243,11 @@ def test_protocol_criteria_and_table(uneven):
     assert not criteria({**good, "rmse_share": (float("nan"),) * 3})["rep"]
     assert not criteria({**good, "spqi_ratio": (0.99, 0.9, 1.1)})["perceptual"]
     assert not criteria({**good, "lsd_drops_db_ratio": (1.01, 0.9, 1.1)})["all"]
-    refs = [r for r, _ in DATASETS]
-    assert refs.count("builtin:helmet-drops") == 2 and sum(r.startswith("heldout:") for r in refs) >= 3
+    from hapticfx.evaluation.heldout import HELDOUT
+
+    assert DATASETS[:2] == (("builtin:helmet-drops", "lovo"), ("builtin:helmet-drops", "looo"))
+    assert DATASETS[2:] == tuple((f"heldout:{name}", "lovo") for name in HELDOUT)  # every held-out set, none twice
+    assert len(HELDOUT) >= 9
     results = run_evaluation(uneven, "max-min", methods_from(["ensemble"]), repeats=5, max_rounds=2,
                              echo=lambda m: None)
     assert results["rounds"] == 2 and len(results["folds"]) == 3  # rounds 1 (both objects) and 4 (steel only)

@@ -24,17 +24,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import heldout
+
 SHARE = 0.60
 IDEAL = (("mean_of_others_lsd_db", "lsd_drops_db", "LSD vs drops"), ("mean_of_others_stsim", "stsim", "ST-SIM"),
          ("mean_of_others_spqi", "spqi", "SPQI"))  # (floor key, measure, label)
 RECORDED = (("drop_pairs_lsd_db", "lsd_drops_db", "LSD vs drops"), ("drop_to_drop_stsim", "stsim", "ST-SIM"),
             ("drop_to_drop_spqi", "spqi", "SPQI"))
-DATASETS = (  # (dataset reference, fold protocol)
+DATASETS = (  # (dataset reference, fold protocol): the built-in set both ways, then every held-out set
     ("builtin:helmet-drops", "lovo"),
-    ("heldout:heldout-irregular", "lovo"),
-    ("heldout:heldout-3drops", "lovo"),
-    ("heldout:heldout-even-height", "lovo"),
     ("builtin:helmet-drops", "looo"),
+    *((f"{heldout.PREFIX}{name}", "lovo") for name in heldout.HELDOUT),
 )
 
 
