@@ -157,6 +157,29 @@ def test_help_lists_the_common_commands_first_and_completion_works():
     assert done.stdout.split() == ["play", "plugins"]
 
 
+def test_a_start_builds_only_the_command_it_runs(monkeypatch):
+    """`hapticfx play ...` converts `play` alone to click; the root's help, an unknown name and completion keep
+    every command (their lists and suggestions need them)."""
+    import typer
+
+    from hapticfx.cli import build_app, narrowed
+
+    monkeypatch.delenv("_HAPTICFX_COMPLETE", raising=False)
+
+    def names(argv):
+        return sorted(typer.main.get_command(narrowed(build_app(), argv)).commands)
+
+    every = names([])
+    assert {"play", "bench", "data", "train", "devices"} <= set(every)
+    assert names(["--debug", "play", "x.yaml", "--device", "memory"]) == ["play"]
+    assert names(["bench", "render", "--repeats", "3"]) == ["bench"]
+    assert names(["--help"]) == names(["plya"]) == every
+    typo = hfx("plya")
+    assert typo.returncode == 2 and "No such command 'plya'. Did you mean 'play'?" in typo.stderr
+    monkeypatch.setenv("_HAPTICFX_COMPLETE", "complete_bash")
+    assert names(["play"]) == every
+
+
 def test_a_velocity_outside_the_recorded_range_is_warned_about(tmp_path):
     effect = REPO / "effects" / "falling_brick.yaml"
     outside = hfx("render", effect, "--velocity", "9", "--out", tmp_path / "a.png")
