@@ -84,7 +84,7 @@ def _rank(command) -> int:
 
 def narrowed(app: typer.Typer, argv: list[str]) -> typer.Typer:
     """``app`` with only the command or group that ``argv`` names, so that click is built for it alone: typer
-    builds each of some 45 commands at about 1 ms on this machine, a sixth of `play`'s start. Anything else
+    builds each of some 45 commands at about 1 ms on this machine, a tenth of `play`'s start. Anything else
     (the root's --help, a name no command has, shell completion) keeps every command, so that lists, "no such
     command" and its suggestions, and completion see them all."""
     if "_HAPTICFX_COMPLETE" in os.environ:
