@@ -180,6 +180,43 @@ def test_training_on_a_cuda_device_this_machine_lacks_is_refused_in_one_line(tmp
     assert meta["training"]["device"] == "cpu"
 
 
+def test_training_on_a_cuda_gpu_resumes_a_cpu_run_and_serves_from_the_cpu(tmp_path, syn_dataset):
+    """Needs a CUDA GPU: skipped in CI and on the project's machine; run on the device machine when one is lent.
+
+    A run started on the CPU continues on the GPU (docs/neural.md: a run may resume on another device), and what
+    it writes (weights, table) is the CPU's: it loads and interpolates without CUDA.
+    """
+    import torch
+    import yaml
+
+    if not torch.cuda.is_available():
+        pytest.skip("no CUDA GPU is visible")
+    path = tiny_config(tmp_path, syn_dataset, epochs=2, patience=100)
+    cpu_meta, _ = train_from_config(load_config(path), progress=False)
+    resume = tmp_path / "ck-convbilstm" / "resume.safetensors"
+    after_cpu = checkpoint.load_tensors(resume)
+    cfg = yaml.safe_load(path.read_text())
+    cfg["training"].update(device="cuda", epochs=6)
+    path.write_text(yaml.safe_dump(cfg))
+    meta, weights = train_from_config(load_config(path), resume=True, progress=False)
+    history = meta["training"]["history"]
+    assert meta["training"]["device"] == "cuda" and meta["training"]["epochs_run"] == 6
+    assert history[:2] == cpu_meta["training"]["history"] and np.all(np.isfinite(history))
+    after_gpu = checkpoint.load_tensors(resume)
+    assert any(not torch.equal(after_gpu[k], after_cpu[k]) for k in after_cpu if k.startswith("net."))  # it trained
+    tensors = checkpoint.load_tensors(weights)
+    assert all(t.device.type == "cpu" and torch.isfinite(t).all() for t in tensors.values())
+    from hapticfx.data.dataset import open_dataset
+    from hapticfx.registry import get_registry
+
+    ds = open_dataset(syn_dataset)
+    bank = ds.bank("plastic-frame", "max-min")
+    interp = get_registry().create("interpolator", "convbilstm", weights=str(weights))
+    interp.prepare(bank, dataset=ds)
+    out = interp.interpolate(*bank.neighbours(3.5), 3.5)
+    assert out.shape == (100,) and np.all(np.isfinite(out))
+
+
 def test_steps_must_divide_the_profile_length(tmp_path, syn_dataset):
     from hapticfx.errors import DatasetError
 
