@@ -32,16 +32,20 @@ def test_paper_sizes_are_the_defaults():
 def test_every_architecture_trains_and_predicts(tmp_path, syn_dataset, arch):
     meta, path = train_from_config(load_config(tiny_config(tmp_path, syn_dataset, arch, epochs=2)), progress=False)
     assert meta["training"]["epochs_run"] == 2 and path.is_file()
+    out = _interpolated(syn_dataset, arch, path)
+    assert out.shape == (100,) and np.all(np.isfinite(out))
+
+
+def _interpolated(dataset, arch, weights, velocity=3.5):
+    """What ``weights`` render for the synthetic dataset's plastic frame at ``velocity``, between two recordings."""
     from hapticfx.data.dataset import open_dataset
     from hapticfx.registry import get_registry
 
-    ds = open_dataset(syn_dataset)
+    ds = open_dataset(dataset)
     bank = ds.bank("plastic-frame", "max-min")
-    interp = get_registry().create("interpolator", arch, weights=str(path))
+    interp = get_registry().create("interpolator", arch, weights=str(weights))
     interp.prepare(bank, dataset=ds)
-    lo, hi = bank.neighbours(3.5)
-    out = interp.interpolate(lo, hi, 3.5)
-    assert out.shape == (100,) and np.all(np.isfinite(out))
+    return interp.interpolate(*bank.neighbours(velocity), velocity)
 
 
 def test_same_seed_same_weights_and_resume_is_exact(tmp_path, syn_dataset):
@@ -206,14 +210,7 @@ def test_training_on_a_cuda_gpu_resumes_a_cpu_run_and_serves_from_the_cpu(tmp_pa
     assert any(not torch.equal(after_gpu[k], after_cpu[k]) for k in after_cpu if k.startswith("net."))  # it trained
     tensors = checkpoint.load_tensors(weights)
     assert all(t.device.type == "cpu" and torch.isfinite(t).all() for t in tensors.values())
-    from hapticfx.data.dataset import open_dataset
-    from hapticfx.registry import get_registry
-
-    ds = open_dataset(syn_dataset)
-    bank = ds.bank("plastic-frame", "max-min")
-    interp = get_registry().create("interpolator", "convbilstm", weights=str(weights))
-    interp.prepare(bank, dataset=ds)
-    out = interp.interpolate(*bank.neighbours(3.5), 3.5)
+    out = _interpolated(syn_dataset, "convbilstm", weights)
     assert out.shape == (100,) and np.all(np.isfinite(out))
 
 
