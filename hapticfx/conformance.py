@@ -10,7 +10,7 @@ sum (:class:`~hapticfx.sumbound.SumBound`) and a warning says why. Plugin author
 their tests: :func:`hapticfx.testing.assert_mix_limiter`.
 
 The verdict depends only on code, so it is computed once per version of it: it is kept in
-``~/.cache/hapticfx/conformance.json`` (``HAPTICFX_CACHE``) under a hash of every source file of the class's
+``conformance.json`` of the user cache folder (:func:`hapticfx.caches.cache_root`) under a hash of every source file of the class's
 top-level package and of the core's limiter, and checked again when one of them changes.
 """
 
@@ -19,7 +19,6 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import os
 import sys
 import threading
 from pathlib import Path
@@ -28,6 +27,7 @@ from typing import Protocol
 import numpy as np
 
 from .atomic import atomic_path
+from .caches import cache_root
 from .errors import HapticfxError
 from .interfaces import SafetyLimits
 
@@ -104,8 +104,7 @@ _lock = threading.Lock()
 
 
 def _cache_file() -> Path:
-    return Path(os.environ.get("HAPTICFX_CACHE") or Path.home() / ".cache" / "hapticfx").expanduser() / \
-        "conformance.json"
+    return cache_root() / "conformance.json"
 
 
 def fingerprint(cls) -> str:

@@ -17,7 +17,7 @@ SMALL = {"duration_ms": 20.0, "pre_ms": 1.0, "felt": "receiver", "receiver": "ta
 
 @pytest.fixture(autouse=True)
 def own_cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv("HAPTICFX_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "physics-cache"))
+    monkeypatch.setenv("HAPTICFX_CACHE", str(tmp_path_factory.getbasetemp() / "physics-cache"))
 
 
 def build(mapping, object_id="wood-beam", info=None):

@@ -5,17 +5,17 @@ drawn once by :func:`hapticfx.droprig.draws.draw_spec` with the seeds below (the
 test ``tests/test_heldout.py`` checks the shipped files still equal those draws).
 ``heldout:NAME`` names one as a dataset: it is simulated the first time it is used
 (about a minute on 2 cores) into ``$HAPTICFX_CACHE/datasets/NAME-<digest of the spec>``
-(default ``~/.cache/hapticfx``), so an edited spec never reuses a stale set.
+(:func:`hapticfx.caches.cache_root`), so an edited spec never reuses a stale set.
 ``hapticfx data synth --heldout all`` makes them all ahead of time.
 """
 
 from __future__ import annotations
 
 import hashlib
-import os
 from pathlib import Path
 from typing import Callable
 
+from ..caches import cache_root
 from ..errors import DatasetError, EffectError, preview
 
 PREFIX = "heldout:"
@@ -42,10 +42,6 @@ def spec_path(name: str) -> Path:
     if name not in HELDOUT:
         raise DatasetError(f"no held-out set {preview(name)}; known: {', '.join(HELDOUT)}")
     return SPEC_DIR / f"{name}.yaml"
-
-
-def cache_root() -> Path:
-    return Path(os.environ.get("HAPTICFX_CACHE") or Path.home() / ".cache" / "hapticfx").expanduser()
 
 
 def dataset_path(name: str) -> Path:

@@ -21,8 +21,7 @@ object) is tabulated once over ``(0, v_max]``:
 The table records a ``source`` (a SHA-256 of everything the profiles depend
 on: the model's parameters, the object, the receiver, :data:`PHYSICS_VERSION`);
 a table built for other parameters is never served. Tables live in a user cache
-folder (``$HAPTICFX_CACHE_DIR``, else ``$XDG_CACHE_HOME/hapticfx``, else
-``~/.cache/hapticfx``) under ``physics/<sha>.npz``, or ship next to an effect in
+folder (:func:`hapticfx.caches.cache_root`) under ``physics/<sha>.npz``, or ship next to an effect in
 ``tables/<sha>.npz``.
 
 An impact costs a blend of two knots' profiles and one small matrix product at
@@ -34,7 +33,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import threading
 import time
 from pathlib import Path
@@ -42,6 +40,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..caches import cache_root
 from ..errors import CheckpointError, SignalError
 from ..interpolators.residual import bump, scale
 from ..interpolators.table import Interval, VelocityTable, tabulate_interval
@@ -66,10 +65,7 @@ def source_digest(spec: dict) -> str:
 
 def cache_dir() -> Path:
     """Where built physics tables are kept for the next run."""
-    if os.environ.get("HAPTICFX_CACHE_DIR"):
-        return Path(os.environ["HAPTICFX_CACHE_DIR"]) / FORMAT_NAME
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "hapticfx" / FORMAT_NAME
+    return cache_root() / FORMAT_NAME
 
 
 def knots(v_max: float) -> np.ndarray:
