@@ -1,7 +1,8 @@
 """The plugin manager and the component registry built from it.
 
 Built-in components are registered through the same hooks as third-party
-plugins. Third-party plugins come from the ``hapticfx`` entry-point group;
+plugins. Third-party plugins come from the ``hapticfx`` entry-point group (found once and
+kept until what is installed changes: :mod:`hapticfx.entrypoints`);
 the ``HAPTICFX_PLUGINS`` environment variable, when set, is a comma-separated
 allow-list of entry-point names to load (empty: load none).
 """
@@ -12,13 +13,12 @@ import importlib
 import os
 import threading
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 import pluggy
 
-from . import hookspecs
+from . import entrypoints, hookspecs
 from .errors import PluginError
 
 KINDS = ("reducer", "interpolator", "model", "actuator", "format")
@@ -44,7 +44,6 @@ def install_hint(dist: str) -> str:
 
 BUILTIN_MODULES = ("hapticfx.builtins.core", "hapticfx.builtins.data", "hapticfx.builtins.physics", "hapticfx.builtins.scene",
                    "hapticfx.builtins.study", "hapticfx.builtins.formats")
-ENTRY_POINT_GROUP = "hapticfx"
 
 
 class lazy:
@@ -101,26 +100,19 @@ class PluginInfo:
     version: str
 
 
-def _hapticfx_version() -> str:
-    try:
-        return metadata.version("hapticfx")
-    except metadata.PackageNotFoundError:
-        return "0+unknown"
-
-
 def create_plugin_manager(*, entry_points: bool = True) -> tuple[pluggy.PluginManager, dict[str, PluginInfo]]:
     """A plugin manager with the built-ins and the allowed entry-point plugins loaded."""
     pm = pluggy.PluginManager("hapticfx")
     pm.add_hookspecs(hookspecs)
     infos: dict[str, PluginInfo] = {}
-    version = _hapticfx_version()
+    installed = entrypoints.installed()
     for module_name in BUILTIN_MODULES:
         pm.register(importlib.import_module(module_name), name=module_name)
-        infos[module_name] = PluginInfo(module_name, "hapticfx", version)
+        infos[module_name] = PluginInfo(module_name, "hapticfx", installed.hapticfx_version)
     if entry_points:
         allowed = os.environ.get(ALLOW_ENV)
         allow = None if allowed is None else {n.strip() for n in allowed.split(",") if n.strip()}
-        for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+        for ep in installed.entry_points:
             if allow is not None and ep.name not in allow:
                 continue
             if ep.name in infos:
@@ -130,8 +122,7 @@ def create_plugin_manager(*, entry_points: bool = True) -> tuple[pluggy.PluginMa
             except Exception as exc:  # a broken third-party plugin must name itself
                 raise PluginError(f"plugin {ep.name!r} ({ep.value}) failed to load: {exc}") from exc
             pm.register(plugin, name=ep.name)
-            dist = ep.dist
-            infos[ep.name] = PluginInfo(ep.name, dist.name if dist else "?", dist.version if dist else "?")
+            infos[ep.name] = PluginInfo(ep.name, ep.distribution, ep.version)
     return pm, infos
 
 
