@@ -40,8 +40,8 @@ class ConvLSTMLayer(nn.Module):
         h = x.new_zeros(b, d, f, s)
         cell = x.new_zeros(b, d, f, s)
         outs = []
-        for step in range(t):
-            g = wx[:, step] + self.r(h.reshape(b, d * f, s)).reshape(b, d, 4 * f, s)
+        for wx_step in wx.unbind(1):  # not wx[:, step]: each index's gradient would be a zero-filled copy of wx
+            g = wx_step + self.r(h.reshape(b, d * f, s)).reshape(b, d, 4 * f, s)
             gi, gf, gc, go = g.split(f, dim=2)
             i = torch.sigmoid(gi + self.u[:, 0] * cell)
             fg = torch.sigmoid(gf + self.u[:, 1] * cell)
