@@ -6,8 +6,9 @@ only on installed files, so it is kept in ``entry-points.json`` of the user cach
 (:func:`hapticfx.caches.cache_root`) beside a fingerprint of those files: every ``*.dist-info`` and
 ``*.egg-info`` folder on ``sys.path``, in order, with the size and time of its ``entry_points.txt``.
 Installing, removing, upgrading or editing a distribution changes the fingerprint, and the next start reads
-the metadata again. Reading the fingerprint is a directory listing per ``sys.path`` entry. An edit that
-keeps both the size and the time of an ``entry_points.txt`` is not seen; deleting the cache file is always safe.
+the metadata again; the four most recently used fingerprints keep their lists. Reading the fingerprint is a
+directory listing per ``sys.path`` entry. An edit that keeps both the size and the time of an
+``entry_points.txt`` is not seen; deleting the cache file is always safe.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from .errors import HapticfxError
 
 GROUP = "hapticfx"
 CACHE_NAME = "entry-points.json"
+# Lists kept, one per fingerprint, most recently used first: the console script and ``python -m hapticfx`` in a source
+# tree (whose ``*.egg-info`` is then on ``sys.path``) see different ones, and neither should evict the other.
+KEPT = 4
 
 
 @dataclass(frozen=True)
@@ -94,24 +98,28 @@ def _scan() -> Installed:
     return Installed(version, tuple(found))
 
 
-def _read(path, mark: list) -> Installed | None:
+def _kept(path) -> list:
+    """The lists kept so far, most recently used first (none when the file is missing or not one this version wrote)."""
     try:
-        kept = json.loads(path.read_text())
-        if kept["fingerprint"] != mark:
-            return None
-        return Installed(str(kept["hapticfx_version"]),
+        kept = json.loads(path.read_text())["kept"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    return [entry for entry in kept if isinstance(entry, dict)] if isinstance(kept, list) else []
+
+
+def _parsed(entry: dict) -> Installed | None:
+    try:
+        return Installed(str(entry["hapticfx_version"]),
                          tuple(EntryPoint(*(str(e[k]) for k in ("name", "value", "distribution", "version")))
-                               for e in kept["entry_points"]))
-    except (OSError, ValueError, KeyError, TypeError):  # none yet, or not one this version wrote
+                               for e in entry["entry_points"]))
+    except (KeyError, TypeError, ValueError):
         return None
 
 
-def _write(path, mark: list, installed: Installed) -> None:
-    kept = {"fingerprint": mark, "hapticfx_version": installed.hapticfx_version,
-            "entry_points": [vars(e) for e in installed.entry_points]}
+def _write(path, kept: list) -> None:
     try:
         with atomic_path(path, make_parents=True) as tmp:
-            tmp.write_text(json.dumps(kept, indent=1))
+            tmp.write_text(json.dumps({"kept": kept}, indent=1))
     except (OSError, HapticfxError):  # a read-only home: read the metadata again next time
         pass
 
@@ -120,8 +128,14 @@ def installed() -> Installed:
     """hapticfx's version and the ``hapticfx`` entry points, from the cache when nothing installed has changed."""
     path = cache_root() / CACHE_NAME
     mark = fingerprint()
-    kept = _read(path, mark)
-    if kept is None:
-        kept = _scan()
-        _write(path, mark, kept)
-    return kept
+    kept = _kept(path)
+    for i, entry in enumerate(kept):
+        if entry.get("fingerprint") == mark and (found := _parsed(entry)) is not None:
+            if i:  # most recently used first: the one to make room is the least recently used
+                _write(path, [entry, *kept[:i], *kept[i + 1:]])
+            return found
+    found = _scan()
+    entry = {"fingerprint": mark, "hapticfx_version": found.hapticfx_version,
+             "entry_points": [vars(e) for e in found.entry_points]}
+    _write(path, [entry, *(e for e in kept if e.get("fingerprint") != mark)][:KEPT])
+    return found

@@ -93,13 +93,43 @@ def test_a_plugin_installed_edited_and_removed_is_seen_at_once(cache, tmp_path, 
     assert "tick" not in get_registry().names("actuator")
 
 
-@pytest.mark.parametrize("damage", ["{not json", "", "[1, 2]", "no entry points"])
+@pytest.mark.parametrize("damage", ["{not json", "", "[1, 2]", '{"kept": 3}', "no entry points"])
 def test_a_damaged_cache_is_read_again_from_the_metadata(cache, site, damage):
     entrypoints.installed()
-    mark = json.loads(cache.read_text())["fingerprint"]
-    cache.write_text(json.dumps({"fingerprint": mark, "hapticfx_version": "1"}) if damage == "no entry points" else damage)
+    mark = json.loads(cache.read_text())["kept"][0]["fingerprint"]
+    cache.write_text(json.dumps({"kept": [{"fingerprint": mark, "hapticfx_version": "1"}]})
+                     if damage == "no entry points" else damage)
     assert [e.name for e in entrypoints.installed().entry_points] == [ep[0] for ep in _from_metadata()]
-    assert len(json.loads(cache.read_text())["entry_points"]) == len(_from_metadata())  # written whole again
+    assert len(json.loads(cache.read_text())["kept"][0]["entry_points"]) == len(_from_metadata())  # whole again
+
+
+def test_each_way_of_starting_keeps_its_own_list(cache, tmp_path, monkeypatch):
+    """A console script and `python -m hapticfx` in a source tree see different sys.paths: neither evicts the other."""
+    ways = []
+    for k in range(entrypoints.KEPT + 1):
+        (tmp_path / f"way{k}" / f"x{k}-1.0.dist-info").mkdir(parents=True)  # a distribution without entry points
+        ways.append(tmp_path / f"way{k}")
+    base = list(sys.path)
+    scans = []
+    scan = entrypoints._scan
+    monkeypatch.setattr(entrypoints, "_scan", lambda: scans.append(1) or scan())
+
+    def start(k):
+        monkeypatch.setattr(sys, "path", [str(ways[k]), *base])
+        return entrypoints.installed()
+
+    for k in range(entrypoints.KEPT):
+        start(k)
+    assert len(scans) == entrypoints.KEPT
+    for k in (0, 3, 1, 2, 0):
+        start(k)
+    assert len(scans) == entrypoints.KEPT  # every one kept
+    start(entrypoints.KEPT)  # one more: the least recently used, 3, makes room
+    for k in (0, 1, 2, entrypoints.KEPT):
+        start(k)
+    assert len(scans) == entrypoints.KEPT + 1
+    start(3)
+    assert len(scans) == entrypoints.KEPT + 2
 
 
 def test_an_unwritable_cache_folder_only_costs_time(tmp_path, monkeypatch, site):
