@@ -228,8 +228,9 @@ def test_the_command_writes_tables_json_and_figures(uneven, tmp_path):
     assert all(float(t) in (0.0, 0.2, 0.4, 0.6, 0.8) for t in warp_row[3].split(", "))
     assert "[4/4]" in r.stderr
     r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "interpolators", "--dataset", str(uneven.path),
-                        "--protocol", "paper"], capture_output=True, text=True)
+                        "--protocol", "paper"], capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 2 and "the paper protocol needs" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "bench-interpolators").exists()  # a refused run leaves no output folder behind
 
 
 def test_protocol_criteria_and_table(uneven):

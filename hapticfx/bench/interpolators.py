@@ -106,11 +106,10 @@ def _run(ref: str, protocol: str, reducer: str, rows, *, seed: int, repeats: int
     say(f"dataset {ds.name} ({reducer}), protocol {protocol}, methods {', '.join(r.row for r in rows)}")
     file = out / "results.json"
     previous = _earlier(file) if resume else None
-    out.mkdir(parents=True, exist_ok=True)
 
-    def save(results: dict) -> dict:
+    def save(results: dict) -> dict:  # the folder appears with the first result: a refused run leaves none
         summary = summarise(results, seed=seed)
-        with atomic_path(file) as tmp:
+        with atomic_path(file, make_parents=True) as tmp:
             tmp.write_text(json.dumps({"results": results, "summary": summary}, indent=1) + "\n")
         return summary
 
