@@ -1,7 +1,8 @@
 """The one user cache folder: what hapticfx computes once from installed or shipped files and reuses.
 
 Held-out drop sets (``datasets/``), physics tables (``physics/``), conformance verdicts
-(``conformance.json``) and the plugins' entry points (``entry-points.json``) all live here. Deleting the folder is always safe: each is rebuilt on next use.
+(``conformance.json``) and the plugins' entry points (``entry-points.json``) all live here. Deleting the
+folder is always safe: each is rebuilt on next use.
 """
 
 from __future__ import annotations

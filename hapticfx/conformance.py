@@ -10,8 +10,9 @@ sum (:class:`~hapticfx.sumbound.SumBound`) and a warning says why. Plugin author
 their tests: :func:`hapticfx.testing.assert_mix_limiter`.
 
 The verdict depends only on code, so it is computed once per version of it: it is kept in
-``conformance.json`` of the user cache folder (:func:`hapticfx.caches.cache_root`) under a hash of every source file of the class's
-top-level package and of the core's limiter, and checked again when one of them changes.
+``conformance.json`` of the user cache folder (:func:`hapticfx.caches.cache_root`) under a hash of every
+source file of the class's top-level package and of the core's limiter, and checked again when one of them
+changes.
 """
 
 from __future__ import annotations

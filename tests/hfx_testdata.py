@@ -26,3 +26,19 @@ def fake_distribution(site, *, dist: str, version: str, entry_point: str, module
     info.mkdir()
     (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: {version}\n")
     (info / "entry_points.txt").write_text(f"[hapticfx]\n{entry_point} = {module}\n")
+
+
+def actuator_plugin(cls: str, name: str) -> str:
+    """The source of a plugin module that registers one actuator, ``name``: a memory actuator of class ``cls``."""
+    return f'''
+        from hapticfx.hookspecs import hookimpl
+        from hapticfx.actuators.virtual import MemoryActuator
+
+        class {cls}(MemoryActuator):
+            """A third-party actuator."""
+            name = "{name}"
+
+        @hookimpl
+        def register_actuators(register):
+            register("{name}", {cls})
+    '''

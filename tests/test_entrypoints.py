@@ -8,22 +8,12 @@ import sys
 from importlib import metadata
 
 import pytest
-from hfx_testdata import fake_distribution
+from hfx_testdata import actuator_plugin, fake_distribution
 
 from hapticfx import entrypoints
 from hapticfx.registry import get_registry, reset_registry
 
-PLUGIN = '''
-    from hapticfx.hookspecs import hookimpl
-    from hapticfx.actuators.virtual import MemoryActuator
-
-    class Tick(MemoryActuator):
-        name = "tick"
-
-    @hookimpl
-    def register_actuators(register):
-        register("tick", Tick)
-'''
+PLUGIN = actuator_plugin("Tick", "tick")
 
 
 @pytest.fixture

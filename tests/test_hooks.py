@@ -11,7 +11,7 @@ import pytest
 from hapticfx import hookspecs
 from hapticfx.errors import PluginError
 from hapticfx.registry import Registry, create_plugin_manager, get_registry, reset_registry
-from hfx_testdata import fake_distribution
+from hfx_testdata import actuator_plugin, fake_distribution
 
 
 def hook_names():
@@ -212,18 +212,7 @@ def test_builtins_go_through_the_plugin_manager():
 def third_party(tmp_path, monkeypatch):
     """A real distribution on sys.path: a .dist-info with an entry point in group `hapticfx`."""
     fake_distribution(tmp_path, dist="hfx-thirdparty", version="1.2.3", entry_point="buzz", module="hfx_thirdparty",
-                      source='''
-        from hapticfx.hookspecs import hookimpl
-        from hapticfx.actuators.virtual import MemoryActuator
-
-        class Buzz(MemoryActuator):
-            """A third-party actuator."""
-            name = "buzz"
-
-        @hookimpl
-        def register_actuators(register):
-            register("buzz", Buzz)
-    ''')
+                      source=actuator_plugin("Buzz", "buzz"))
     monkeypatch.syspath_prepend(str(tmp_path))
     yield
     sys.modules.pop("hfx_thirdparty", None)
