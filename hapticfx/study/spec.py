@@ -231,6 +231,8 @@ def _stimulus(name, raw, *, source, base_dir, actuators) -> Stimulus:
         check_effect(effect)
         if "recorded" in raw:
             _recorded_bank(effect)
+    except StudyError:  # already names this file and key
+        raise
     except EffectError as exc:
         raise _rekeyed(exc, source, f"{key}.recorded" if "recorded" in raw else f"{key}.effect") from None
     except HapticfxError as exc:  # a dataset or plugin error, raised while checking the stimulus
