@@ -46,6 +46,20 @@ def test_anti_correlated_signal_scores_zero_not_a_complex_number():
     assert isinstance(score, float) and score == 0.0
 
 
+def test_arrays_of_signals_score_each_pair_as_one_pair_does():
+    rng = np.random.default_rng(3)
+    x = np.array([P.prepare(_impact() * (1 + 0.3 * k) + 0.2 * rng.standard_normal(500), rate_hz=1000.0)
+                  for k in range(4)])
+    x[2], x[3] = x[1], 0.0  # an identical pair, and silence
+    for measure in (P.st_sim, P.spqi):
+        one_by_one = np.array([[measure(a, b) for b in x] for a in x])
+        assert all(isinstance(v, float) for v in one_by_one.ravel())
+        assert one_by_one[1, 2] == one_by_one[3, 3] == 1.0
+        assert np.all(np.isfinite(one_by_one)) and np.all((one_by_one >= 0) & (one_by_one <= 1))
+        assert np.array_equal(measure(x[:, None], x[None, :]), one_by_one)  # bit for bit, not just close
+        assert np.array_equal(measure(x[0], x), one_by_one[0])  # one signal against each of several
+
+
 def test_threshold_lies_on_the_bins_own_frequencies():
     t = P.threshold_db(2800.0)
     k250 = int(round(250 / (2800 / (2 * P.BLOCK))))

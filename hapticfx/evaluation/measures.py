@@ -55,12 +55,12 @@ def drop_pairs(drops, *, rate_hz: float) -> dict[str, float]:
     and ``mean_of_others_*``: the mean of the other drops as the prediction of each drop (the RMSE floors'
     ideal, on these measures)."""
     raw = np.atleast_2d(drops)
-    d = [prepare(x, rate_hz=rate_hz) for x in raw]
-    if len(d) < 2:
+    if len(raw) < 2:
         return {}
-    pairs = [(i, j) for i in range(len(d)) for j in range(len(d)) if i != j]
-    means = [prepare(m, rate_hz=rate_hz) for m in leave_one_out_means(raw)]
-    return {"drop_to_drop_stsim": float(np.mean([st_sim(d[i], d[j]) for i, j in pairs])),
-            "drop_to_drop_spqi": float(np.mean([spqi(d[i], d[j]) for i, j in pairs])),
-            "mean_of_others_stsim": float(np.mean([st_sim(m, d[j]) for j, m in enumerate(means)])),
-            "mean_of_others_spqi": float(np.mean([spqi(m, d[j]) for j, m in enumerate(means)]))}
+    d = np.array([prepare(x, rate_hz=rate_hz) for x in raw])
+    means = np.array([prepare(m, rate_hz=rate_hz) for m in leave_one_out_means(raw)])
+    apart = ~np.eye(len(d), dtype=bool)  # [i, j]: drop i as the prediction of drop j, i != j
+    return {"drop_to_drop_stsim": float(np.mean(st_sim(d[:, None], d[None, :])[apart])),
+            "drop_to_drop_spqi": float(np.mean(spqi(d[:, None], d[None, :])[apart])),
+            "mean_of_others_stsim": float(np.mean(st_sim(means, d))),
+            "mean_of_others_spqi": float(np.mean(spqi(means, d)))}

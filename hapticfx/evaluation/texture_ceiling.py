@@ -60,14 +60,13 @@ class Fold:
     filled: dict = field(default_factory=dict)  # (beta, g) -> {lsd, stsim, spqi, cost}, for each fill g > 0
 
 
-def _spectral(preds: np.ndarray, drops: np.ndarray, refs: list, rate_hz: float) -> dict:
+def _spectral(preds: np.ndarray, drops: np.ndarray, refs: np.ndarray, rate_hz: float) -> dict:
     """Mean LSD, ST-SIM and SPQI of ``preds[j]`` against ``drops[j]`` (one prediction ``(N,)``: against every drop)."""
     one = preds.ndim == 1
-    got = [prepare(preds, rate_hz=rate_hz)] * len(refs) if one else [prepare(p, rate_hz=rate_hz) for p in preds]
+    got = prepare(preds, rate_hz=rate_hz) if one else np.array([prepare(p, rate_hz=rate_hz) for p in preds])
     preds = np.broadcast_to(preds, drops.shape)
     return {"lsd": float(np.mean(log_spectral_distance(preds, drops, rate_hz=rate_hz))),
-            "stsim": float(np.mean([st_sim(g, r) for g, r in zip(got, refs)])),
-            "spqi": float(np.mean([spqi(g, r) for g, r in zip(got, refs)]))}
+            "stsim": float(np.mean(st_sim(got, refs))), "spqi": float(np.mean(spqi(got, refs)))}
 
 
 def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: int, *, rate_hz: float,
@@ -76,7 +75,7 @@ def fold(obj: str, velocity: float, blend: np.ndarray, drops: np.ndarray, rep: i
     the index of its representative among them; with each fill ``g`` of ``fills`` on each share too."""
     d = np.asarray(drops, dtype=np.float64)
     blend = np.asarray(blend, dtype=np.float64)
-    refs = [prepare(x, rate_hz=rate_hz) for x in d]
+    refs = np.array([prepare(x, rate_hz=rate_hz) for x in d])
     mean, centres = d.mean(axis=0), leave_one_out_means(d)  # centres[rep]: the other drops' mean
     linear = {**_spectral(blend, d, refs, rate_hz), "rmse_mean": float(rmse(blend, mean)),
               "rmse_rep": float(rmse(blend, d[rep]))}

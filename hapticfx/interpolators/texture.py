@@ -187,12 +187,12 @@ def score(targets: Iterable[Target], pairs=tuple((b, 0.0) for b in TEXTURES)) ->
     rows: dict = {b: [] for b in ("linear", *pairs)}
     floors = []
     for t in targets:
-        refs = [prepare(d, rate_hz=t.rate_hz) for d in t.drops]
+        refs = np.array([prepare(d, rate_hz=t.rate_hz) for d in t.drops])
 
         def measured(pred):
             x = prepare(pred, rate_hz=t.rate_hz)
             return (float(np.mean(log_spectral_distance(pred, t.drops, rate_hz=t.rate_hz))),
-                    float(np.mean([st_sim(x, r) for r in refs])), float(np.mean([spqi(x, r) for r in refs])),
+                    float(np.mean(st_sim(x, refs))), float(np.mean(spqi(x, refs))),
                     float(rmse(pred, t.mean)), float(rmse(pred, t.rep)))
 
         rows["linear"].append(measured(t.blend))

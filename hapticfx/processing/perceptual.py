@@ -31,6 +31,8 @@ in g; the threshold (dB) is taken against m/s^2, so profiles are converted first
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy.fft import dct
 from scipy.special import ndtr
@@ -65,49 +67,64 @@ def threshold_db(rate_hz: float = RATE_HZ, block: int = BLOCK) -> np.ndarray:
     return t
 
 
+@lru_cache(maxsize=8)
+def _threshold(rate_hz: float, block: int) -> np.ndarray:
+    t = threshold_db(rate_hz, block)
+    t.flags.writeable = False
+    return t
+
+
 def _blocks(x: np.ndarray) -> np.ndarray:
-    return x[: len(x) // BLOCK * BLOCK].reshape(-1, BLOCK)
+    return x[..., : x.shape[-1] // BLOCK * BLOCK].reshape(*x.shape[:-1], -1, BLOCK)
 
 
 def perceptual_spectrum(x: np.ndarray, rate_hz: float = RATE_HZ) -> np.ndarray:
-    """Per block: DCT magnitude (dB) above the detection threshold."""
+    """Per block (of each signal along the last axis): DCT magnitude (dB) above the detection threshold."""
     with np.errstate(divide="ignore"):
-        return 20 * np.log10(np.abs(dct(_blocks(x), norm="ortho", axis=1))) - threshold_db(rate_hz)
+        return 20 * np.log10(np.abs(dct(_blocks(x), norm="ortho", axis=-1))) - _threshold(float(rate_hz), BLOCK)
 
 
-def _similarity(ref: np.ndarray, dist: np.ndarray) -> float:
-    return float(np.mean(np.sum(ref * dist, axis=1) / (np.sum(ref**2, axis=1) + _EPS)))
+def _similarity(ref: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    return np.mean(np.sum(ref * dist, axis=-1) / (np.sum(ref**2, axis=-1) + _EPS), axis=-1)
 
 
 def _normalised(blocks: np.ndarray) -> np.ndarray:
-    return (blocks - blocks.mean(axis=1, keepdims=True)) / (blocks.std(axis=1, keepdims=True) + _EPS)
+    return (blocks - blocks.mean(axis=-1, keepdims=True)) / (blocks.std(axis=-1, keepdims=True) + _EPS)
 
 
-def st_sim(distorted: np.ndarray, reference: np.ndarray, *, rate_hz: float = RATE_HZ, eta: float = STSIM_ETA) -> float:
-    """ST-SIM of ``distorted`` against ``reference`` (prepared signals of equal length); 1 is identical."""
-    if np.array_equal(distorted, reference):
-        return 1.0
-    spectral = _similarity(ndtr(perceptual_spectrum(reference, rate_hz) / 12),
-                           ndtr(perceptual_spectrum(distorted, rate_hz) / 12))
-    temporal = max(_similarity(_normalised(_blocks(reference)), _normalised(_blocks(distorted))), 0.0)
-    return float(temporal**eta * spectral ** (1 - eta))
+def _pairs(distorted, reference) -> tuple[np.ndarray, np.ndarray]:
+    return np.broadcast_arrays(np.asarray(distorted, dtype=np.float64), np.asarray(reference, dtype=np.float64))
 
 
-def spqi(distorted: np.ndarray, reference: np.ndarray, *, rate_hz: float = RATE_HZ, eta: float = SPQI_ETA,
-         threshold: float = SPQI_THRESHOLD) -> float:
-    """SPQI of ``distorted`` against ``reference`` (prepared signals of equal length); 1 is identical."""
-    if np.array_equal(distorted, reference):
-        return 1.0
-    p_ref = 10 ** (perceptual_spectrum(reference, rate_hz) / 10)
-    p_dist = 10 ** (perceptual_spectrum(distorted, rate_hz) / 10)
+def _per_pair(values: np.ndarray, dist: np.ndarray, ref: np.ndarray) -> float | np.ndarray:
+    """``values``, with 1 where the pair is identical; a float for one pair."""
+    out = np.where(np.all(dist == ref, axis=-1), 1.0, values)
+    return float(out) if out.ndim == 0 else out
+
+
+def st_sim(distorted, reference, *, rate_hz: float = RATE_HZ, eta: float = STSIM_ETA) -> float | np.ndarray:
+    """ST-SIM of ``distorted`` against ``reference`` (prepared signals of equal length); 1 is identical.
+    Arrays ``(..., L)`` broadcast against each other and give one value per pair."""
+    dist, ref = _pairs(distorted, reference)
+    spectral = _similarity(ndtr(perceptual_spectrum(ref, rate_hz) / 12), ndtr(perceptual_spectrum(dist, rate_hz) / 12))
+    temporal = np.maximum(_similarity(_normalised(_blocks(ref)), _normalised(_blocks(dist))), 0.0)
+    return _per_pair(temporal**eta * spectral ** (1 - eta), dist, ref)
+
+
+def spqi(distorted, reference, *, rate_hz: float = RATE_HZ, eta: float = SPQI_ETA,
+         threshold: float = SPQI_THRESHOLD) -> float | np.ndarray:
+    """SPQI of ``distorted`` against ``reference`` (prepared signals of equal length); 1 is identical.
+    Arrays ``(..., L)`` broadcast against each other and give one value per pair."""
+    dist, ref = _pairs(distorted, reference)
+    p_ref = 10 ** (perceptual_spectrum(ref, rate_hz) / 10)
+    p_dist = 10 ** (perceptual_spectrum(dist, rate_hz) / 10)
     with np.errstate(divide="ignore"):
-        error = 10 * np.log10(np.sum(np.abs(p_ref - p_dist), axis=1) / (np.sum(p_ref, axis=1) + _EPS))
-    return float(np.mean((1 - np.tanh(eta * error - threshold)) / 2))
+        error = 10 * np.log10(np.sum(np.abs(p_ref - p_dist), axis=-1) / (np.sum(p_ref, axis=-1) + _EPS))
+    return _per_pair(np.mean((1 - np.tanh(eta * error - threshold)) / 2, axis=-1), dist, ref)
 
 
 def scores(pred, truths, *, rate_hz: float) -> dict[str, float]:
     """Mean ST-SIM and SPQI of profile ``pred`` against each of ``truths`` ``(D, N)`` (1 is perfect)."""
     p = prepare(pred, rate_hz=rate_hz)
-    refs = [prepare(t, rate_hz=rate_hz) for t in np.atleast_2d(truths)]
-    return {"stsim": float(np.mean([st_sim(p, r) for r in refs])),
-            "spqi": float(np.mean([spqi(p, r) for r in refs]))}
+    refs = np.array([prepare(t, rate_hz=rate_hz) for t in np.atleast_2d(truths)])
+    return {"stsim": float(np.mean(st_sim(p, refs))), "spqi": float(np.mean(spqi(p, refs)))}
