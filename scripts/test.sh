@@ -3,6 +3,10 @@
 # sound-card tests play into, then pytest; arguments go to pytest. A sound server
 # this script started is stopped again when the tests end (however they end); one
 # that was already running is left as it was.
+# The tests run in parallel (pytest-xdist), one worker per processor and at most 4;
+# HAPTICFX_TEST_WORKERS sets the number (0: in this process, one after another). A test
+# module runs on one worker, so its module-scoped fixtures are made once.
+# Each worker that records the sound card starts a null sink of its own.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
@@ -16,4 +20,5 @@ export XDG_RUNTIME_DIR
 if [ "$running" = no ]; then
   trap 'bash .ci/soundserver.sh --stop >/dev/null' EXIT
 fi
-"$PY" -m pytest -q "$@"
+workers=${HAPTICFX_TEST_WORKERS:-$(( $(nproc) < 4 ? $(nproc) : 4 ))}
+"$PY" -m pytest -q -n "$workers" --dist loadscope "$@"

@@ -13,6 +13,13 @@ REPO = Path(__file__).resolve().parents[3]
 SCRIPT = REPO / ".ci" / "soundserver.sh"
 
 
+def worker_runtime_dir() -> str | None:
+    """Under pytest-xdist, this worker's own server (``$HAPTICFX_XDG-gw1``...): a recording of the sink's monitor
+    must not hear what another worker plays at the same moment. None in a run without workers."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER")
+    return f"{os.environ.get('HAPTICFX_XDG', '/tmp/hapticfx-xdg')}-{worker}" if worker else None
+
+
 def start_soundserver(runtime_dir: str | None = None) -> str:
     """Run .ci/soundserver.sh (idempotent); returns the XDG_RUNTIME_DIR of that server."""
     missing = [t for t in ("pulseaudio", "pactl", "pacat") if shutil.which(t) is None]
