@@ -34,21 +34,22 @@ def warp_path(a: np.ndarray, b: np.ndarray, *, penalty: float, band: int = BAND)
     n = len(a)
     peak = max(float(np.max(np.abs(a))), float(np.max(np.abs(b))), 1e-12)
     x, y = np.asarray(a, dtype=np.float64) / peak, np.asarray(b, dtype=np.float64) / peak
+    ramp = penalty * np.arange(n)  # penalty j at column j
     move = np.zeros((n, n), dtype=np.int8)  # 0 diagonal, 1 from (i-1, j), 2 from (i, j-1)
     above = np.full(n + 1, np.inf)  # the row above; entry j + 1 holds column j, entry 0 is before the grid
     above[0] = 0.0  # the start (0, 0) is entered diagonally from outside
     for i in range(n):
         lo, hi = max(0, i - band), min(n, i + band + 1)
-        cols = np.arange(lo, hi)
         cost = (x[i] - y[lo:hi]) ** 2
         diag, up = above[lo:hi], above[lo + 1:hi + 1] + penalty
         f = cost + np.minimum(diag, up)
         c = np.cumsum(cost)
-        row = c + penalty * cols + np.minimum.accumulate(f - c - penalty * cols)
+        row = c + ramp[lo:hi] + np.minimum.accumulate(f - c - ramp[lo:hi])
         left = row + 1e-12 * (1.0 + np.abs(row)) < f  # reached along the row, not entering here (rounding aside)
         left[0] = False
-        move[i, lo:hi] = np.where(left, 2, np.where(up < diag, 1, 0))
-        above = np.full(n + 1, np.inf)
+        move[i, lo:hi] = np.where(left, 2, up < diag)
+        # this row becomes the one above: the band only moves right, so past hi nothing was ever written
+        above[lo] = np.inf
         above[lo + 1:hi + 1] = row
     path = []
     i = j = n - 1
