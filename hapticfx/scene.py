@@ -152,8 +152,10 @@ def _entry(object_id: Any, raw: Any, *, source: str, base_dir: Path, actuators: 
         output = f"actuators.{name}"
     if "channel" in raw:
         channel = _channel(raw["channel"], source=source, key=f"{key}.channel")
+        # the scene actuator's own channel (0 where it names none) is the same output as no channel at all
+        same = "actuator" in raw and channel == (actuators[raw["actuator"]].channel or 0)
         effect = dataclasses.replace(effect, actuator=dataclasses.replace(effect.actuator, channel=channel))
-        output = f"{output}#{channel}"
+        output = output if same else f"{output}#{channel}"
     return SceneEntry(object_id, effect, output)
 
 

@@ -119,7 +119,7 @@ def test_impact_returns_while_the_worker_renders_on_another_thread(tmp_path, reg
     assert RENDER_THREADS and threading.get_ident() not in RENDER_THREADS
     played = engine.played()[0]
     assert played.at == 12.5 and played.object == "brick" and played.velocity == 3.0
-    assert played.output == "actuators.helmet#0" and played.peak == pytest.approx(playbacks[0].signal.peak)
+    assert played.output == "actuators.helmet" and played.peak == pytest.approx(playbacks[0].signal.peak)
     assert not hasattr(played, "signal")  # the history keeps no samples
     assert playbacks[0].signal.rate_hz == 2000 and playbacks[0].summary() == played
     assert playbacks[0].delivery.impact.object == "concrete-brick"  # the effect's object, not the scene key
@@ -193,7 +193,7 @@ def test_many_threads_share_one_engine(tmp_path, registry):
         t.join()
     stats = engine.close(timeout=600)  # every queued impact is played, however long a loaded machine takes
     assert stats["submitted"] == 2400 == stats["queued"] == stats["rendered"] and all(results)
-    shared = engine._outputs["actuators.helmet#0"].actuator
+    shared = engine._outputs["actuators.helmet"].actuator
     own = engine._outputs["frame"].actuator
     assert shared.received == 1600 and own.received == 800
     # the memory output keeps the newest 16 MiB: 800 x 9600 float64 samples are 59 MiB
@@ -203,7 +203,7 @@ def test_many_threads_share_one_engine(tmp_path, registry):
 
 def test_shared_actuator_runs_its_own_limiter_over_all_its_effects(tmp_path, registry):
     engine = Engine(scene(tmp_path, queue=100, limits=", limits: {peak: 0.3, rms: 0.2}"), registry=registry)
-    out = engine._outputs["actuators.helmet#0"]
+    out = engine._outputs["actuators.helmet"]
     assert out.limiter is not None and engine._outputs["frame"].limiter is None
     for i in range(40):
         engine.impact("brick" if i % 2 else "plate", 5.0)
@@ -243,11 +243,11 @@ def test_wav_output_is_written_when_the_engine_closes(tmp_path, registry):
         engine.impact("frame", 3.0)
     # two outputs (the shared helmet and the frame's own): one file each
     files = sorted(p.name for p in tmp_path.glob("out-*.wav"))
-    assert files == ["out-actuators_helmet_0.wav", "out-frame.wav"]
+    assert files == ["out-actuators_helmet.wav", "out-frame.wav"]
     rate, data = read_wav(tmp_path / "out-frame.wav")  # the frame's own memory actuator: 48 kHz
     lead = data.size - 9600  # the files line up: the frame's impact came a moment after the session's first
     assert rate == 48000 and 0 <= lead and not data[0, :lead].any() and np.isfinite(data).all()
-    rate, data = read_wav(tmp_path / "out-actuators_helmet_0.wav")
+    rate, data = read_wav(tmp_path / "out-actuators_helmet.wav")
     assert rate == 2000 and data.size == 400
 
 
@@ -302,8 +302,8 @@ def test_a_held_output_never_delays_another(tmp_path, registry):
         assert engine.impact("frame", 3.0)
     _wait_for(lambda: engine.stats()["outputs"]["frame"]["rendered"] == 5)
     stats = engine.stats()
-    assert stats["outputs"]["actuators.helmet#0"]["rendered"] == 0  # still held
-    assert stats["outputs"]["actuators.helmet#0"]["pending"] == 3
+    assert stats["outputs"]["actuators.helmet"]["rendered"] == 0  # still held
+    assert stats["outputs"]["actuators.helmet"]["pending"] == 3
     GATE.set()
     stats = engine.close()
     assert stats["rendered"] == 8 and stats["pending"] == 0
@@ -317,9 +317,9 @@ def test_an_actuator_that_takes_the_time_of_receipt_gets_each_impacts(tmp_path, 
     for v in (2.0, 3.0, 4.0):
         assert engine.impact("brick", v)
     engine.close()
-    helmet = engine._outputs["actuators.helmet#0"].actuator
+    helmet = engine._outputs["actuators.helmet"].actuator
     assert isinstance(helmet, TimedMemory) and helmet.received == 3
-    assert helmet.receipts == [p.received for p in engine.played() if p.output == "actuators.helmet#0"]
+    assert helmet.receipts == [p.received for p in engine.played() if p.output == "actuators.helmet"]
     assert before <= helmet.receipts[0] <= helmet.receipts[-1] <= time.perf_counter()
 
 

@@ -51,6 +51,29 @@ events:
     assert scene.osc.port == 9123 and scene.osc.host == "127.0.0.1" and scene.osc.rate_hz == 0
 
 
+def test_the_scene_actuators_own_channel_is_one_output_with_no_channel(tmp_path):
+    """docs/embedding.md: entries on one scene actuator and channel share one opened actuator and one limiter,
+    whether the channel is named (0, the actuator's first) or not; and so under a --device stand-in."""
+    from hapticfx.engine import Engine
+
+    path = write(tmp_path, f"""
+name: s
+actuators:
+  helmet: {{type: memory}}
+  pinned: {{type: memory, channel: 2}}
+effects:
+  a: {{actuator: helmet, channel: 0, inline: {INLINE}}}
+  b: {{actuator: helmet, inline: {INLINE}}}
+  c: {{actuator: pinned, channel: 2, inline: {INLINE}}}
+  d: {{actuator: pinned, channel: 0, inline: {INLINE}}}
+""")
+    scene = load_scene(path)
+    assert [scene.entries[k].output for k in "abcd"] == [
+        "actuators.helmet", "actuators.helmet", "actuators.pinned", "actuators.pinned#0"]
+    with Engine(path, device="memory") as engine:
+        assert sorted(engine.stats()["outputs"]) == ["actuators.helmet", "actuators.pinned", "actuators.pinned#0"]
+
+
 @pytest.mark.parametrize("body, key, words", [
     ("name: s\n", "(top level)", "required key 'effects'"),
     ("name: s\neffects: {}\n", "effects", "non-empty"),
