@@ -67,7 +67,7 @@ class _RunStates(Sequence):
         end = self._tail + i * self._block
         tail = self._joined[max(0, end - self._keep):end] if self._keep else np.zeros(0)
         counts = {**self._first[3], "peak_events": int(self._events[i])}
-        return tail, (), self._at_s + i * self._block / self._rate_hz, counts, float(self._reduction[i])
+        return tail, (), self._at_s + i * self._block / self._rate_hz, counts, float(self._reduction[i]), (0, 0)
 
 
 class SafetyLimiter:
@@ -77,8 +77,10 @@ class SafetyLimiter:
     never lets the RMS over any ``limits.rms_window_s`` window (including
     windows spanning earlier calls) exceed ``limits.rms``; when ``limits`` were
     lowered from an actuator's, its hard limits hold as well, each over its own
-    window. For pulse limits, the time above ``on_threshold`` is capped per pulse
-    and over ``duty_window_s``.
+    window. For pulse limits, the time above ``on_threshold`` is capped per pulse and
+    over any ``duty_window_s`` window (including windows spanning earlier calls). A
+    pulse is the time above the threshold until the signal has stayed under it for
+    ``pulse_gap_s`` (an oscillation's zero crossings do not end it), across calls.
 
     ``splice_s``: the RMS limit also holds where the device plays the output with up to this much cut out
     of any window (a sound server that drops part of a stream around an underrun, and joins the rest
@@ -87,6 +89,7 @@ class SafetyLimiter:
     """
 
     on_threshold = 0.05
+    pulse_gap_s = 0.01
 
     def __init__(self, limits: SafetyLimits, rate_hz: float, *, splice_s: float = 0.0):
         self.limits = limits
@@ -114,7 +117,9 @@ class SafetyLimiter:
         self._max_duty = min(duty) if duty else None
         self._duty_window_s = limits.duty_window_s
         self._tail = np.zeros(0)  # last win-1 output samples, for windows across calls
-        self._on_history: deque[tuple[float, float]] = deque()  # (time_s, on_s) per call
+        self._on_history: deque[tuple[float, float]] = deque()  # (end_s, on_s) per call
+        self._pulse = (0, 0)  # on-samples of the last pulse so far, and samples off since its last one
+        self._gap_n = max(1, int(round(self.pulse_gap_s * self.rate_hz)))
         self._clock_s = 0.0
         self._lock = threading.Lock()
         self._counts = dict(peak_events=0, rms_events=0, on_time_events=0, duty_events=0)
@@ -142,6 +147,8 @@ class SafetyLimiter:
         with self._lock:
             if at_s is not None and at_s > self._clock_s:
                 self._tail = self._tail_after_gap(at_s)
+                if self._max_on_s is not None:
+                    self._pulse = self._pulse_after(self._pulse, int(round((at_s - self._clock_s) * self.rate_hz)))
                 self._clock_s = float(at_s)
             peak = float(max(x.max(), -x.min()))  # no |x| array: a render's 24,000 samples
             if peak > self._peak:
@@ -222,7 +229,8 @@ class SafetyLimiter:
 
     def _state(self) -> tuple:
         # _tail is replaced, never changed in place
-        return self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction
+        return (self._tail, tuple(self._on_history), self._clock_s, dict(self._counts), self._max_reduction,
+                self._pulse)
 
     def _tail_after_gap(self, at_s: float) -> np.ndarray:
         """The output tail with the silence between the last block and ``at_s`` (seconds, later) added."""
@@ -235,7 +243,7 @@ class SafetyLimiter:
     def restore(self, state: tuple) -> None:
         """Go back to a :meth:`state` taken before."""
         with self._lock:
-            self._tail, history, self._clock_s, counts, self._max_reduction = state
+            self._tail, history, self._clock_s, counts, self._max_reduction, self._pulse = state
             self._on_history, self._counts = deque(history), dict(counts)
 
     def _over_budget(self, pieces: Sequence[np.ndarray], slack: float = 1.0) -> bool:
@@ -331,18 +339,18 @@ class SafetyLimiter:
     def _limit_pulses(self, x: np.ndarray) -> np.ndarray:
         mono = np.max(np.abs(x), axis=0) if x.ndim > 1 else np.abs(x)
         on = mono > self.on_threshold
-        if self._max_on_s is not None:
-            max_n = int(self._max_on_s * self.rate_hz)
-            idx = np.flatnonzero(on)
-            if idx.size > max_n:
-                cut = idx[max_n]
+        n = on.size
+        if self._max_on_s is not None and n:
+            over = self._past_on_time(on)
+            if over.any():
                 x = x.copy()
-                x[..., cut:] = 0.0
-                on[cut:] = False
-                self._note("on_time_events", max_n / idx.size if idx.size else 1.0)
+                x[..., over] = 0.0
+                on &= ~over
         if self._max_duty is not None:
+            # a call's on-time counts until its end leaves the window: every window that holds any part
+            # of an earlier call is checked against all of that call's on-time
             now = self._clock_s
-            while self._on_history and self._on_history[0][0] < now - self._duty_window_s:
+            while self._on_history and self._on_history[0][0] <= now - self._duty_window_s:
                 self._on_history.popleft()
             used = sum(s for _, s in self._on_history)
             budget = self._max_duty * self._duty_window_s - used
@@ -355,8 +363,33 @@ class SafetyLimiter:
                     x[..., idx[allowed_n]:] = 0.0
                 self._note("duty_events", allowed_n / idx.size if idx.size else 0.0)
                 on_s = allowed_n / self.rate_hz
-            self._on_history.append((now, on_s))
+            self._on_history.append((now + n / self.rate_hz, on_s))
         return x
+
+    def _pulse_after(self, pulse: tuple[int, int], off_n: int) -> tuple[int, int]:
+        """The pulse state after ``off_n`` more samples under the threshold (its count ends at pulse_gap_s)."""
+        return pulse[0], min(pulse[1] + off_n, self._gap_n)
+
+    def _past_on_time(self, on: np.ndarray) -> np.ndarray:
+        """Where ``on`` (the input above the threshold) is past ``max_on_s`` in its pulse: the input's pulse
+        goes on, the output stays silent until it ends. The last pulse is carried into the next call."""
+        n, (run, off) = on.size, self._pulse
+        idx = np.flatnonzero(on)
+        if not idx.size:
+            self._pulse = self._pulse_after(self._pulse, n)
+            return on
+        gaps = np.diff(idx, prepend=idx[0] - off - 1) - 1  # samples off before each on-sample
+        starts = gaps >= self._gap_n
+        starts[0] |= run == 0
+        first = np.maximum.accumulate(np.where(starts, np.arange(idx.size), 0))  # its pulse's first on-sample
+        place = np.arange(idx.size) - first + 1 + np.where(first == 0, 0 if starts[0] else run, 0)
+        self._pulse = self._pulse_after((int(place[-1]), 0), n - 1 - int(idx[-1]))
+        max_n = int(self._max_on_s * self.rate_hz)
+        over = np.zeros(n, dtype=bool)
+        over[idx[place > max_n]] = True
+        if over.any():
+            self._note("on_time_events", max_n / int(place.max()))
+        return over
 
     def report(self) -> LimiterReport:
         with self._lock:

@@ -38,13 +38,15 @@ def test_the_hard_way_measure_finds_each_kind_of_excess():
 
     haptuator, solenoid = dict(HARD)["haptuator"], dict(HARD)["solenoid"]  # RMS 0.5 over 50 ms; 0.1 s on, 25 % duty
     quiet = np.full(4800, 0.45)
-    assert excess(quiet, [0], [4800], haptuator, 0.01) is None
-    assert excess(np.r_[quiet, 1.2], [0], [4801], haptuator, 0.01) == {"peak": 1.2}
-    assert set(excess(np.full(2400, 0.6), [0], [2400], haptuator, 0.01)) == {"rms"}
-    assert set(excess(np.full(150, 0.9), [0], [150], solenoid, 0.01)) == {"on_time_s"}  # 150 ms in one pulse
+    assert excess(quiet, haptuator, 0.01, 0.01) is None
+    assert excess(np.r_[quiet, 1.2], haptuator, 0.01, 0.01) == {"peak": 1.2}
+    assert set(excess(np.full(2400, 0.6), haptuator, 0.01, 0.01)) == {"rms"}
+    assert set(excess(np.full(150, 0.9), solenoid, 0.01, 0.01)) == {"on_time_s"}  # 150 ms in one pulse
+    apart = np.r_[np.full(80, 0.9), np.zeros(10), np.full(80, 0.9)]  # two pulses, or one if 10 ms joins them
+    assert excess(apart, solenoid, 0.01, 0.01) is None
+    assert excess(apart, solenoid, 0.01, 0.011) == {"on_time_s": 0.16}
     pulses = np.tile(np.r_[np.full(90, 0.9), np.zeros(210)], 34)  # 90 ms on in every 300 ms: 30 % duty
-    starts = list(range(0, pulses.size, 300))
-    assert set(excess(pulses, starts, [300] * len(starts), solenoid, 0.01)) == {"duty"}
+    assert set(excess(pulses, solenoid, 0.01, 0.01)) == {"duty"}
 
 
 @pytest.mark.parametrize("n, win, chunk", [(50, 7, 5), (50, 50, 3), (1000, 1, 64), (999, 40, 1 << 18)])

@@ -77,6 +77,45 @@ def test_pulse_on_time_and_duty():
     assert np.count_nonzero(out4 > lim.on_threshold) == 40
 
 
+def test_a_pulse_is_capped_across_calls_and_each_pulse_on_its_own():
+    """A solenoid's pulse split over two blocks (the file outputs feed 512 frames at a time) is one pulse;
+    two pulses in one block each get the whole cap; a pulse ends after pulse_gap_s under the threshold,
+    in the signal or between calls, and not at an oscillation's zero crossings."""
+    limits = SafetyLimits(peak=1, rms=1, max_on_s=0.1)
+    lim = SafetyLimiter(limits, RATE)
+    a = lim.process(np.r_[np.zeros(10), np.ones(90)], at_s=0.0)
+    b = lim.process(np.r_[np.ones(90), np.zeros(10)], at_s=0.1)
+    assert np.count_nonzero(np.r_[a, b] > lim.on_threshold) == 100
+    assert lim.report().on_time_events == 1
+    two = lim.process(np.r_[np.ones(60), np.zeros(10), np.ones(60)], at_s=0.2)  # 10 ms off: pulse_gap_s
+    assert np.count_nonzero(two > lim.on_threshold) == 120
+    lim.process(np.ones(80), at_s=0.4)
+    after_gap = lim.process(np.ones(80), at_s=0.49)  # 10 ms of silence between calls: a new pulse
+    assert np.count_nonzero(after_gap > lim.on_threshold) == 80
+    lim.process(np.zeros(20), at_s=0.6)
+    buzz = lim.process(np.sin(2 * np.pi * 150 * np.arange(500) / RATE), at_s=0.62)  # its zero crossings
+    assert np.count_nonzero(np.abs(buzz) > lim.on_threshold) <= 100  # do not end its pulse
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_no_window_holds_more_on_time_than_the_duty_allows(seed):
+    """Every duty window, wherever it starts, against what came out of blocks of random length and gaps."""
+    limits = SafetyLimits(peak=1, rms=1, max_on_s=0.1, max_duty=0.25, duty_window_s=1.0)
+    lim = SafetyLimiter(limits, RATE)
+    rng = np.random.default_rng(seed)
+    timeline = np.zeros(int(12 * RATE))
+    t = 0
+    while t < timeline.size - 1500:  # blocks shorter and longer than the window, their pulses anywhere
+        x = np.concatenate([np.zeros(int(rng.integers(0, 300))), np.ones(int(rng.integers(1, 150))),
+                            np.zeros(int(rng.integers(0, 2)) * int(rng.integers(0, 1200)))])
+        timeline[t:t + x.size] = lim.process(x, at_s=t / RATE)
+        t += x.size + int(rng.integers(0, 3)) * int(rng.integers(0, 50))
+    on = np.concatenate([[0], np.cumsum(timeline > lim.on_threshold)])
+    w = int(limits.duty_window_s * RATE)
+    assert (on[w:] - on[:-w]).max() <= limits.max_duty * w
+    assert lim.report().duty_events > 0
+
+
 def test_effect_cannot_raise_limits():
     from hapticfx.errors import EffectError
 
@@ -158,9 +197,9 @@ def test_a_run_of_blocks_at_once_is_the_same_as_block_by_block(limits, amp):
         np.testing.assert_array_equal(got, np.concatenate(want))
         assert len(states) == len(want_states)
         for s, w in zip(states, want_states):
-            tail, history, clock, counts, reduction = s
+            tail, history, clock, counts, reduction, pulse = s
             np.testing.assert_array_equal(tail, w[0])
-            assert (history, counts, reduction) == (w[1], w[3], w[4])
+            assert (history, counts, reduction, pulse) == (w[1], w[3], w[4], w[5])
             assert clock == pytest.approx(w[2], abs=1e-12)
         assert one.report() == many.report()
         t += x.size / RATE + 0.01 * run  # then a gap of silence

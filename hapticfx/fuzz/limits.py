@@ -86,9 +86,9 @@ def _max_window_mean_square(x: np.ndarray, win: int, *, chunk: int = 1 << 18) ->
     return best / win
 
 
-def excess(out: np.ndarray, starts: list[int], lengths: list[int], spec: ActuatorSpec,
-            threshold: float) -> dict | None:
-    """How far the output timeline goes past the hard limits (None: within them)."""
+def excess(out: np.ndarray, spec: ActuatorSpec, threshold: float, gap_s: float) -> dict | None:
+    """How far the output timeline goes past the hard limits (None: within them); a pulse is the time above
+    ``threshold`` until the output stays under it for ``gap_s``."""
     hard, rate = spec.limits, spec.rate_hz
     found = {}
     magnitude = np.abs(out)
@@ -102,7 +102,9 @@ def excess(out: np.ndarray, starts: list[int], lengths: list[int], spec: Actuato
         if worst > hard.rms * (1 + 1e-9):
             found["rms"] = worst
     if hard.max_on_s is not None:
-        worst_on = max((int(np.count_nonzero(on[s:s + n])) for s, n in zip(starts, lengths)), default=0) / rate
+        idx = np.flatnonzero(on)
+        ends = np.flatnonzero(np.diff(idx) - 1 >= max(1, round(gap_s * rate)))  # each pulse's last on-sample
+        worst_on = float(np.max(np.diff(np.r_[-1, ends, idx.size - 1]))) / rate if idx.size else 0.0
         if worst_on > hard.max_on_s + 1.0 / rate:
             found["on_time_s"] = worst_on
     if hard.max_duty is not None:
@@ -127,21 +129,19 @@ def check_limits(overrides: int, signals_per_override: int, *, seed: int = 0,
         limits = _override(spec, rng)
         limiter = SafetyLimiter(limits, spec.rate_hz)
         gain, scale = rng.uniform(0, 1), 10 ** rng.uniform(-3, 1)
-        blocks, starts, lengths, clock = [], [], [], 0
+        blocks, clock = [], 0
         for _ in range(signals_per_override):
             clock += int(rng.integers(0, int(0.3 * spec.rate_hz)))  # a gap of silence, maybe none
             out = limiter.process(shape(_profile(rng), spec, gain=gain, scale=scale).samples,
                                   at_s=clock / spec.rate_hz)
             blocks.append((clock, out))
-            starts.append(clock)
-            lengths.append(out.shape[-1])
             clock += out.shape[-1]
             res.signals += 1
         timeline = np.zeros(clock)
         for start, out in blocks:
             timeline[start:start + out.shape[-1]] = out
         del blocks, out
-        found = excess(timeline, starts, lengths, spec, limiter.on_threshold)
+        found = excess(timeline, spec, limiter.on_threshold, limiter.pulse_gap_s)
         res.overrides += 1
         if found:
             res.violations += 1
