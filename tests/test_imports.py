@@ -66,6 +66,20 @@ def test_playing_the_shipped_data_driven_effects_imports_no_torch(tmp_path):
         assert "numpy.ma" not in mods, name  # 9 ms of a start; np.unique imports it
 
 
+def test_a_contact_effect_served_from_its_shipped_table_loads_no_ode_solver(tmp_path):
+    """scipy.integrate and scipy.signal (about 1 s of a start) are what a table is built with, not read with."""
+    from pathlib import Path
+
+    effect = Path(__file__).resolve().parents[1] / "effects" / "families" / "tapping.yaml"
+    mods = _modules_after(f"""
+        from hapticfx.pipeline import Pipeline
+        with Pipeline.from_effect({str(effect)!r}, device="memory") as p:
+            p.impact(velocity=0.3)
+            assert p.model.describe()["served_from"] != "a table built at first use"
+    """)
+    assert not [m for m in ("scipy.integrate", "scipy.signal") if m in mods]
+
+
 STUDY_HEAVY = ("pandas", "statsmodels", "selenium", "matplotlib")
 
 

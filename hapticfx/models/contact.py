@@ -81,8 +81,9 @@ class ContactModel(Model):
             "serve impacts from a velocity table built once (true), or integrate the contact at every impact"))
 
     def __init__(self, params: Params, context: BuildContext):
-        import scipy.integrate  # noqa: F401 -- loaded when the effect is built, not on its first impact (~1 s)
-        import scipy.signal  # noqa: F401
+        if not params.table:  # every impact integrates: load the solver now, not on the first impact (~1 s);
+            import scipy.integrate  # noqa: F401 -- a table is read without it, and built (once) with it
+            import scipy.signal  # noqa: F401
 
         from ..droprig.contact import MATERIALS
         from ..droprig.family import Strike
