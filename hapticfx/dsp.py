@@ -114,6 +114,15 @@ def _sections(rate_hz: float, low_hz: float | None, high_hz: float | None) -> li
 
 
 @lru_cache(maxsize=64)
+def _ring(rate_hz: float, low_hz: float | None, high_hz: float | None) -> int:
+    """Samples in which the sections' impulse response falls to e**-20 of its start: 20 time constants of
+    the slowest pole in the z-plane (an edge near Nyquist puts a pole near -1 that rings far longer than
+    ``1 / (2 pi edge)``)."""
+    slowest = max(max(abs(r) for r in np.roots(a)) for _, a in _sections(rate_hz, low_hz, high_hz))
+    return int(math.ceil(20.0 / -math.log(slowest)))
+
+
+@lru_cache(maxsize=64)
 def _response(rate_hz: float, low_hz: float | None, high_hz: float | None, nfft: int) -> np.ndarray:
     z = np.exp(-2j * np.pi * np.arange(nfft // 2 + 1) / nfft)
     h = np.ones_like(z)
@@ -132,9 +141,7 @@ def causal_butterworth(x: np.ndarray, rate_hz: float, *, low_hz: float | None, h
     """
     x = np.asarray(x, dtype=np.float64)
     n = x.shape[-1]
-    slowest = min(e for e in (low_hz, high_hz) if e)
-    ring = int(math.ceil(20.0 * rate_hz / (2 * math.pi * slowest)))  # 20 time constants of the slowest pole
-    nfft = _next_pow2(n + ring)
+    nfft = _next_pow2(n + _ring(rate_hz, low_hz, high_hz))
     return irfft(rfft(x, nfft) * _response(rate_hz, low_hz, high_hz, nfft), nfft)[..., :n]
 
 

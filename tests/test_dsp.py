@@ -55,6 +55,21 @@ def test_causal_butterworth_equals_lfilter_of_scipys_design(dtype, fs, low, high
     assert np.max(np.abs(ours[: int(0.05 * fs)])) < 1e-12  # causal: nothing before the onset
 
 
+@pytest.mark.parametrize("fs, low, high", [(41, 20, None), (45, 20, None), (1000, None, 400), (1000, None, 470),
+                                          (1000, 20, 400)])
+def test_causal_butterworth_near_nyquist_does_not_wrap_round(fs, low, high):
+    """An edge near Nyquist puts a pole near -1 that rings much longer than 1 / (2 pi edge): a signal still
+    loud at its end must not wrap its filtered tail round onto its start."""
+    x = np.zeros(40)
+    x[1:31] = 1.0
+    ref = x
+    for edge, kind in ((low, "highpass"), (high, "lowpass")):
+        if edge:
+            ref = ss.lfilter(*ss.butter(2, edge, kind, fs=fs), ref)
+    ours = causal_butterworth(x, fs, low_hz=low, high_hz=high)
+    assert np.max(np.abs(ours - ref)) < 1e-8 and abs(ours[0]) < 1e-8  # the tail left at e**-20
+
+
 def test_taper_starts_and_ends_at_zero_and_leaves_the_middle():
     x = np.ones((2, 1000))
     y = taper(x, 1000.0, fade_in_s=0.002, fade_out_s=0.01)
