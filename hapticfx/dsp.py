@@ -77,16 +77,18 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
 
 @lru_cache(maxsize=64)  # a Fraction's limit_denominator is slow for a per-impact path, and the rate pairs are few
 def rate_ratio(from_hz: float, to_hz: float) -> Fraction:
-    """``to_hz / from_hz`` as the nearest fraction with a denominator up to 1000 (``ValueError`` when 0)."""
+    """``to_hz / from_hz`` as the nearest fraction with a denominator up to 1000 (``ValueError`` where that
+    is more than 0.1 % off: a ratio of more than 1000 to 1 down)."""
     ratio = Fraction(to_hz / from_hz).limit_denominator(1000)
-    if ratio.numerator == 0:
-        raise ValueError(f"cannot resample from {from_hz:g} Hz to {to_hz:g} Hz")
+    if abs(float(ratio) * from_hz - to_hz) > 1e-3 * to_hz:
+        raise ValueError(f"cannot resample from {from_hz:g} Hz to {to_hz:g} Hz: the ratio is past 1000 to 1 "
+                         "(resample the recording to at most 1000 times the target rate first)")
     return ratio
 
 
 def resample_rate(x: np.ndarray, from_hz: float, to_hz: float, *, axis: int = -1) -> np.ndarray:
     """``x`` sampled at ``from_hz`` resampled along ``axis`` by :func:`rate_ratio` (``from_hz * ratio``
-    is the rate it then has, ``to_hz`` to within 1/1000)."""
+    is the rate it then has, ``to_hz`` to within 0.1 %)."""
     if from_hz == to_hz:
         return np.array(x, dtype=np.float64)
     ratio = rate_ratio(from_hz, to_hz)

@@ -21,15 +21,22 @@ from .signal import Signal, valid_number
 
 FADE_IN_S = 0.002   # shorter than any onset a model puts after its first sample
 FADE_OUT_S = 0.010
+RATE_PPM = 100.0  # a resampled rate this close to the actuator's is the actuator's (crystals: 20-100 ppm)
 
 
 def resample(signal: Signal, rate_hz: float) -> Signal:
-    """``signal`` at ``rate_hz``, by a polyphase filter (exact rational ratio)."""
+    """``signal`` at ``rate_hz``, by a polyphase filter (a rational ratio, :func:`~hapticfx.dsp.rate_ratio`).
+
+    Where the ratio's rate is within ``RATE_PPM`` of ``rate_hz`` (a profile at 1001 Hz to 48 kHz comes out
+    at 47999.9988 Hz), the result is ``rate_hz``'s: an error below a sound card's own clock's, which a WAV
+    file and an actuator's rate check would otherwise refuse.
+    """
     rate_hz = valid_number(rate_hz, name="rate_hz", minimum=1e-9)
     if rate_hz == signal.rate_hz:
         return signal
-    rate = signal.rate_hz * rate_ratio(signal.rate_hz, rate_hz)
-    return Signal.adopt(resample_rate(signal.samples, signal.rate_hz, rate_hz), float(rate))
+    rate = float(signal.rate_hz * rate_ratio(signal.rate_hz, rate_hz))
+    rate = rate_hz if abs(rate - rate_hz) <= RATE_PPM * 1e-6 * rate_hz else rate
+    return Signal.adopt(resample_rate(signal.samples, signal.rate_hz, rate_hz), rate)
 
 
 def _band_edges(rate_hz: float, band_hz: tuple[float, float]) -> tuple[float | None, float | None]:

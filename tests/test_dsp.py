@@ -41,6 +41,26 @@ def test_a_ratio_that_rounds_to_zero_is_refused():
         resample_rate(np.ones(10), 1e6, 0.1)
 
 
+def test_a_ratio_past_a_thousand_to_one_is_refused_not_approximated():
+    """1.5 MHz to 1 kHz was taken as 1000:1, a recording 50 % too long."""
+    with pytest.raises(ValueError, match="past 1000 to 1"):
+        resample_rate(np.ones(1500), 1.5e6, 1000.0)
+    assert resample_rate(np.ones(100_000), 1e6, 1000.0).shape == (100,)
+
+
+@pytest.mark.parametrize("rate", [1001.0, 997.3, 1234.567])
+def test_a_profile_at_an_odd_rate_comes_out_at_the_actuators(rate, tmp_path):
+    """The ratio's rate is within RATE_PPM of 48 kHz: the shaped signal is at 48 kHz, so a WAV takes it."""
+    from hapticfx.actuators.files import write_wav
+    from hapticfx.shaping import RATE_PPM
+
+    exact = float(rate * rate_ratio(rate, 48000.0))
+    assert abs(exact - 48000.0) <= RATE_PPM * 1e-6 * 48000.0
+    out = shape(Signal(np.hanning(int(rate) // 2), rate), VIBRO, gain=1.0, scale=0.1)
+    assert out.rate_hz == 48000.0
+    write_wav(tmp_path / "x.wav", out.samples, out.rate_hz)
+
+
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("fs, low, high", [(1000, 20, None), (1000, None, 300), (1000, 30, 400), (48000, 20, 15000)])
 def test_causal_butterworth_equals_lfilter_of_scipys_design(dtype, fs, low, high):
