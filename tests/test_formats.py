@@ -45,6 +45,17 @@ def test_write_then_read_keeps_the_envelope_and_frequency(tmp_path, name):
     assert format_for(path).name == name and decoded.notes == ()
 
 
+@pytest.mark.parametrize("name", ["haptic", "ahap", "android", "hjif"])
+def test_a_signal_loud_from_its_first_sample_is_loud_from_the_start(tmp_path, name):
+    """Android's envelope builder starts at amplitude 0: the first breakpoint's level was dropped, and a steady
+    0.3 sine read back as a ramp from silence (RMS 0.012 over the first 50 ms instead of 0.21)."""
+    rate = 48000.0
+    x = Signal(0.3 * np.sin(2 * np.pi * 150 * np.arange(int(0.5 * rate)) / rate), rate)
+    _, decoded = write_read(format_named(name), tmp_path, x, transients=False)
+    y = decoded.signal.samples
+    assert np.sqrt(np.mean(y[:int(0.05 * rate)] ** 2)) == pytest.approx(0.3 / np.sqrt(2), rel=0.1)
+
+
 @pytest.mark.parametrize("name", ["haptic", "ahap", "hjif"])
 def test_a_sharp_onset_becomes_a_transient(tmp_path, name):
     fmt = format_named(name)

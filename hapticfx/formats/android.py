@@ -9,7 +9,7 @@ arguments as JSON (``NAME.android.json``) for an app to pass on:
   amplitude. Every vibrator with amplitude control plays it.
 - ``envelope``: ``VibrationEffect.WaveformEnvelopeBuilder`` (API 36): ``setInitialFrequencyHz``,
   then ``addControlPoint(amplitude 0-1, frequencyHz, durationMillis)`` per breakpoint; the builder
-  starts at amplitude 0. Android documents no frequency range for all devices (an app reads the
+  starts at amplitude 0, so a signal loud at its first breakpoint rises to it in the first millisecond. Android documents no frequency range for all devices (an app reads the
   device's from ``Vibrator.getFrequencyProfile()``); an offline file cannot, so hapticfx writes
   the analysed frequency clamped to the export device's range (default Quest, 55-200 Hz). For the waveform itself, see :mod:`hapticfx.formats.ogg`.
 
@@ -48,12 +48,17 @@ class AndroidFormat(EnvelopeFormat):
         t = pattern.amplitude[:, 0]
         a = np.clip(pattern.amplitude[:, 1], 0.0, 1.0)
         ms = np.round(t * 1000).astype(int)
-        keep = np.concatenate(([True], np.diff(ms) > 0))
-        ms, a, t = ms[keep], a[keep], t[keep]
-        hz = options.device.hz(np.interp(t, pattern.frequency[:, 0], pattern.frequency[:, 1])
-                               if len(pattern.frequency) else np.full(len(t), 0.5))
+        first = np.flatnonzero(np.concatenate(([True], np.diff(ms) > 0)))  # breakpoints a millisecond apart,
+        ms, a, t = ms[first], np.maximum.reduceat(a, first), t[first]    # each the loudest of its millisecond
         timings = np.diff(ms).tolist()
         steps = np.round(255 * 0.5 * (a[:-1] + a[1:])).astype(int).tolist()
+        if a[0] > 0 and len(ms) > 1 and ms[1] - ms[0] > 1:  # the envelope starts at 0: rise to a[0] in 1 ms
+            ms, a, t = np.insert(ms, 1, ms[0] + 1), np.insert(a, 1, a[0]), np.insert(t, 1, t[0] + 1e-3)
+            a[0] = 0.0
+        elif len(ms) == 1 or a[0] > 0:  # nothing to take the millisecond from: 1 ms later
+            ms, a, t = np.r_[ms[0], ms + 1], np.r_[0.0, a], np.r_[t[0], t + 1e-3]
+        hz = options.device.hz(np.interp(t, pattern.frequency[:, 0], pattern.frequency[:, 1])
+                               if len(pattern.frequency) else np.full(len(t), 0.5))
         points = [{"amplitude": round(float(a[i]), 6), "frequencyHz": round(float(hz[i]), 3),
                    "durationMillis": int(ms[i] - ms[i - 1])} for i in range(1, len(ms))]
         return {"format": "android.os.VibrationEffect", "editor": f"hapticfx {__version__}",
