@@ -217,7 +217,7 @@ def _object(value, *, source) -> tuple[str, ObjectInfo | None]:
     if not isinstance(dims, (list, tuple)) or len(dims) != 3:
         raise EffectError(f"expected [width, height, depth] in mm, got {preview(dims)}", source=source, key="object.dimensions_mm")
     dims = tuple(_number(d, source=source, key="object.dimensions_mm", minimum=0.0, maximum=1e5) for d in dims)
-    p = parse_params(ObjectParams, raw, source=source, key="object")
+    p = parse_params(ObjectParams, raw, source=source, key="object", also=("dimensions_mm",))
     return p.id, ObjectInfo(p.id, p.name or p.id, p.mass_kg, dims, p.material)
 
 
@@ -334,7 +334,8 @@ def check_effect(effect: Effect, *, registry: Registry | None = None) -> Plan:
     model_cls = _resolve(registry, "model", effect.model.type, source=src, key="model.type")
     actuator_cls = _actuator_cls(registry, effect.actuator.type, source=src)
     model_params = parse_params(params_of(model_cls), effect.model.options, source=src, key="model")
-    actuator_params = parse_params(params_of(actuator_cls), effect.actuator.options, source=src, key="actuator")
+    actuator_params = parse_params(params_of(actuator_cls), effect.actuator.options, source=src, key="actuator",
+                                   also=ACTUATOR_CORE_KEYS)
     return Plan(effect, model_cls, model_params, actuator_cls, actuator_params)
 
 

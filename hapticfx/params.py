@@ -94,8 +94,9 @@ def _coerce(value: Any, tp, where: str, source: str):
     raise EffectError(f"expected {_type_name(tp)}, got {type(value).__name__} {preview(value)}", source=source, key=where)
 
 
-def parse_params(cls: type, mapping: Any, *, source: str, key: str):
-    """Build ``cls`` (a Params dataclass) from ``mapping``; errors name ``source`` and ``key``."""
+def parse_params(cls: type, mapping: Any, *, source: str, key: str, also: tuple[str, ...] = ()):
+    """Build ``cls`` (a Params dataclass) from ``mapping``; errors name ``source`` and ``key``. ``also``: keys of
+    the same mapping that the caller reads itself (taken out of ``mapping``), listed with the allowed ones."""
     if mapping is None:
         mapping = {}
     if not isinstance(mapping, dict):
@@ -104,7 +105,7 @@ def parse_params(cls: type, mapping: Any, *, source: str, key: str):
     hints = typing.get_type_hints(cls)
     unknown = [k for k in mapping if k not in fields]
     if unknown:
-        allowed = ", ".join(fields) or "none"
+        allowed = ", ".join((*also, *fields)) or "none"
         raise EffectError(f"unknown key {preview(unknown[0])}; allowed: {allowed}", source=source, key=key)
     values = {}
     for name, f in fields.items():

@@ -50,6 +50,12 @@ CASES = [
     ("unknown actuator plugin",
      GOOD.replace("type: memory", "type: rumble-pak"),
      "{f}: actuator.type: unknown actuator 'rumble-pak'; installed: "),
+    ("unknown actuator key lists the core keys too",
+     GOOD.replace("gain: 0.8", "gian: 0.8"),
+     "{f}: actuator: unknown key 'gian'; allowed: type, device, channel, gain, full_scale_g, limits, rate_hz, keep_mib"),
+    ("unknown object key lists dimensions_mm too",
+     GOOD.replace("object: concrete-brick", "object: {id: rock, mas_kg: 1}"),
+     "{f}: object: unknown key 'mas_kg'; allowed: dimensions_mm, id, mass_kg, name, material"),
     ("python object tag",
      GOOD.replace("velocity_mps: 3.8", "velocity_mps: !!python/object/apply:os.system ['true']"),
      "{f}: invalid YAML: line 3, column 15: tag 'tag:yaml.org,2002:python/object/apply:os.system' is not allowed "
