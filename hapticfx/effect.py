@@ -167,7 +167,7 @@ class Effect:
     # the limits of the effect's own actuator section, with the file that set them, kept where a scene
     # routes the effect to another actuator: they still hold there (the strictest wins)
     own_limits: tuple[tuple[LimitParams, str], ...] = ()
-    actuator_source: str = ""  # who wrote the actuator section, where not the effect file (a scene)
+    actuator_at: tuple[str, str] = ()  # (file, key) of the actuator section, where not the effect file's (a scene's)
 
     def context(self, *, device=None) -> BuildContext:
         return BuildContext(
@@ -317,24 +317,24 @@ def _resolve(registry: Registry, kind: str, name: str, *, source: str, key: str)
         raise EffectError(str(exc), source=source, key=key) from None
 
 
-def _actuator_cls(registry: Registry, name: str, *, source: str) -> type:
+def _actuator_cls(registry: Registry, name: str, *, source: str, key: str) -> type:
     """The registered actuator ``name``; a first-party sound-card actuator whose plugin is not installed is
     known by its spec (hapticfx.actuators.known): it renders to files, and says what to install to play."""
     from .actuators.known import KNOWN, spec_only
 
     if name in KNOWN and name not in registry.names("actuator"):
         return spec_only(name)
-    return _resolve(registry, "actuator", name, source=source, key="actuator.type")
+    return _resolve(registry, "actuator", name, source=source, key=f"{key}.type")
 
 
 def check_effect(effect: Effect, *, registry: Registry | None = None) -> Plan:
     """Resolve the effect's plugins and validate their parameters; opens nothing."""
     registry = registry or get_registry()
-    src = effect.source
+    src, (act_src, act_key) = effect.source, effect.actuator_at or (effect.source, "actuator")
     model_cls = _resolve(registry, "model", effect.model.type, source=src, key="model.type")
-    actuator_cls = _actuator_cls(registry, effect.actuator.type, source=src)
+    actuator_cls = _actuator_cls(registry, effect.actuator.type, source=act_src, key=act_key)
     model_params = parse_params(params_of(model_cls), effect.model.options, source=src, key="model")
-    actuator_params = parse_params(params_of(actuator_cls), effect.actuator.options, source=src, key="actuator",
+    actuator_params = parse_params(params_of(actuator_cls), effect.actuator.options, source=act_src, key=act_key,
                                    also=ACTUATOR_CORE_KEYS)
     return Plan(effect, model_cls, model_params, actuator_cls, actuator_params)
 
@@ -342,11 +342,12 @@ def check_effect(effect: Effect, *, registry: Registry | None = None) -> Plan:
 def effective_limits(hard: SafetyLimits, effect: Effect) -> SafetyLimits:
     """The actuator's hard limits, lowered by the effect's actuator section where it asks, and by the limits
     of the effect's own actuator section where a scene routed it elsewhere: the strictest of them all holds."""
+    src, key = effect.actuator_at or (effect.source, "actuator")
     try:
         limits = hard.lowered(**dataclasses.asdict(effect.actuator.limits),
-                              source=effect.actuator_source or f"effect {effect.source}")
+                              source=f"scene {src} {key}" if effect.actuator_at else f"effect {src}")
     except EffectError as exc:
-        raise EffectError(str(exc), source=effect.source, key="actuator.limits") from None
+        raise EffectError(str(exc), source=src, key=f"{key}.limits") from None
     for own, source in effect.own_limits:
         try:
             limits = limits.strictest(hard.lowered(**dataclasses.asdict(own), source=f"effect {source}"))

@@ -148,7 +148,7 @@ def _entry(object_id: Any, raw: Any, *, source: str, base_dir: Path, actuators: 
         if effect.actuator.limits != LimitParams():  # the effect's own limits hold wherever it is routed
             own += ((effect.actuator.limits, effect.source),)
         effect = dataclasses.replace(effect, actuator=actuators[name], own_limits=own,
-                                     actuator_source=f"scene {source} actuators.{name}")
+                                     actuator_at=(source, f"actuators.{name}"))
         output = f"actuators.{name}"
     if "channel" in raw:
         channel = _channel(raw["channel"], source=source, key=f"{key}.channel")

@@ -103,6 +103,22 @@ def test_errors_name_the_scene_file_and_key_path(tmp_path, body, key, words):
     assert words in str(err.value) and str(err.value).startswith(f"{path}: {key}: ")
 
 
+@pytest.mark.parametrize("section, key, words", [
+    ("{type: memory, gian: 0.5}", "actuators.h", "unknown key 'gian'; allowed: type, device, channel, gain,"),
+    ("{type: nope}", "actuators.h.type", "unknown actuator 'nope'"),
+])
+def test_a_scene_actuators_plugin_error_names_the_scene_not_the_effect_it_carries(tmp_path, section, key, words):
+    """The effect file's own actuator section is not where the fix goes: the scene's is."""
+    write(tmp_path, "name: b\nobject: concrete-brick\nmodel: {type: kinetic-energy}\nactuator: {type: memory}\n",
+          "brick.yaml")
+    path = write(tmp_path, f"name: s\nactuators: {{h: {section}}}\neffects: {{a: {{effect: brick.yaml, actuator: h}}}}\n")
+    from hapticfx.effect import check_effect
+
+    with pytest.raises(EffectError) as err:
+        check_effect(load_scene(path).entries["a"].effect)
+    assert (err.value.source, err.value.key) == (str(path), key) and words in str(err.value)
+
+
 def test_an_error_inside_a_referenced_effect_names_that_effect_file(tmp_path):
     bad = write(tmp_path, "name: b\nobject: concrete-brick\nmodel: {type: kinetic-energy}\nactuator: {type: memory, gain: 7}\n", "bad.yaml")
     with pytest.raises(EffectError) as err:

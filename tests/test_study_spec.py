@@ -81,6 +81,14 @@ def test_an_effect_files_own_error_names_both_files(tmp_path):
         load_study(path)
 
 
+def test_a_study_actuators_plugin_error_names_the_study_not_the_stimulus_effect(tmp_path):
+    study = small_study()
+    study["actuators"]["helmet"]["gian"] = 0.5
+    path = write_study(tmp_path, study)
+    with pytest.raises(HapticfxError, match=rf"^{path}: actuators.helmet: unknown key 'gian'; allowed: type, "):
+        load_study(path)
+
+
 def test_duplicate_keys_and_tags_are_refused(tmp_path):
     path = tmp_path / "s.yaml"
     path.write_text("name: a\nname: b\n")

@@ -185,6 +185,8 @@ def _rekeyed(exc: EffectError, source: str, key: str) -> StudyError:
         text = text[len(exc.source) + 2:]
     if exc.key and text.startswith(f"{exc.key}: "):
         text = text[len(exc.key) + 2:]
+    if exc.source == source and (exc.key or "").startswith("actuators."):  # the study's own actuator section
+        return StudyError(text, source=source, key=exc.key)
     inner = exc.key if exc.key and exc.key not in ("(top level)", "model", "actuator") else ""
     if exc.source != source:  # an effect file: keep its name, it is where the fix goes
         return StudyError(f"{exc.source}: {exc.key + ': ' if exc.key else ''}{text}", source=source, key=key)
@@ -227,7 +229,7 @@ def _stimulus(name, raw, *, source, base_dir, actuators) -> Stimulus:
             model = {"type": "recorded", **{k: rec[k] for k in ("dataset", "reducer") if k in rec}}
             effect = effect_from_mapping({"name": name, "object": rec["object"], "model": model, "actuator": {"type": "memory"}},
                                          source=source, base_dir=base_dir)
-        effect = dataclasses.replace(effect, actuator=actuators[actuator])
+        effect = dataclasses.replace(effect, actuator=actuators[actuator], actuator_at=(source, f"actuators.{actuator}"))
         check_effect(effect)
         if "recorded" in raw:
             _recorded_bank(effect)
