@@ -117,6 +117,13 @@ def test_good_effect_passes(write_effect):
     assert plan.model_params.pulse_ms == 30.0
 
 
+def test_numbers_in_exponent_form_are_numbers(write_effect):
+    """YAML 1.1 reads 1e1 and 3.8e0 as text ('expected a number, got str'); JSON and YAML 1.2 read numbers."""
+    effect = load_effect(write_effect(GOOD.replace("velocity_mps: 3.8", "velocity_mps: 3.8e0")
+                                      .replace("pulse_ms: 30", "pulse_ms: 3e1")))
+    assert effect.velocity_mps == 3.8 and check_effect(effect).model_params.pulse_ms == 30.0
+
+
 def test_cli_user_error_is_one_line_exit_2(write_effect):
     path = write_effect(GOOD.replace("type: kinetic-energy", "type: quantum"))
     r = subprocess.run([sys.executable, "-m", "hapticfx", "play", str(path), "--device", "memory"],
