@@ -89,8 +89,12 @@ def read_yaml(path: Path) -> Any:
             raise EffectError(f"{path.stat().st_size} bytes; a YAML file here holds at most {MAX_YAML_BYTES}",
                               source=str(path))
         text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise EffectError(f"cannot read: {exc.strerror if isinstance(exc, OSError) else exc}", source=str(path)) from None
+    except OSError as exc:
+        raise EffectError(f"cannot read: {exc.strerror}", source=str(path)) from None
+    except UnicodeDecodeError as exc:
+        raise EffectError(f"not a YAML text file (byte {exc.start} is not UTF-8 text); expected an effect, scene or "
+                          "study file" + ("; a WAV file goes to `hapticfx export`" if path.suffix.lower() == ".wav"
+                                          else ""), source=str(path)) from None
     loader = None
     try:
         loader = _StrictLoader(text)

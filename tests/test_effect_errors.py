@@ -178,6 +178,16 @@ def test_hostile_effect_files_give_one_short_line(tmp_path, label):
     assert expected in message and "\n" not in message and len(message) < 300, message
 
 
+@pytest.mark.parametrize("name, hint", [("impact.wav", "a WAV file goes to `hapticfx export`"), ("e.yaml", "")])
+def test_a_binary_file_is_said_to_be_no_yaml(tmp_path, name, hint):
+    path = tmp_path / name
+    path.write_bytes(b"RIFF\x24\x08\x00\x00WAVEfmt \xff\xfe")
+    with pytest.raises(EffectError) as info:
+        load_effect(path)
+    assert str(info.value) == (f"{path}: not a YAML text file (byte 16 is not UTF-8 text); expected an effect, scene or "
+                               "study file" + (f"; {hint}" if hint else ""))
+
+
 def test_long_paths_and_large_files_are_refused_in_one_line(tmp_path):
     with pytest.raises(EffectError, match="cannot read: File name too long"):
         load_effect(tmp_path / ("x" * 300 + ".yaml"))
