@@ -108,8 +108,9 @@ def test_edges_finite_bounded_continuous_and_a_clear_error_past_the_range(mass, 
         r = model.receiver_model()
         per_kg = 1.0 / r.mass + sum(abs(m.vertical) / m.mass for m in r.modes)
         assert peaks[-1] * 9.80665 <= 2 * (2 * mass * v_max) / 1e-3 * per_kg
-        with pytest.raises(SignalError, match=r"past this effect's range \(0 to 2 m/s\).*max_velocity_mps"):
+        with pytest.raises(SignalError, match=r"past this effect's range \(0 to 2 m/s\).*max_velocity_mps") as err:
             model.render(Impact("wood-beam", v_max * (1 + 1e-9)))
+        assert err.value.source == model.context.source  # the effect file that sets the range
     if served != "table":
         return
     # continuous: either side of every knot and of the floor, the table moves by a hair

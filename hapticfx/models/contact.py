@@ -200,10 +200,10 @@ class ContactModel(Model):
     # No terms(): a table's profile is one small matrix product at the profile's rate, then shaped once per impact;
     # shaping each of a table's hundreds of rows ahead at the device's rate would hold tens of MB per effect.
     def render(self, impact: Impact) -> Signal:
+        self._check_range(impact.velocity)
         if self.params.table:
             raw = self.table_for(self.object_for(impact.object)).profile(impact.velocity)
             return Signal(self._finish(raw), self.params.rate_hz)
-        self._check_range(impact.velocity)
         info = self.object_for(impact.object)
         key = (info.id, float(impact.velocity))
         with self._lock:
@@ -221,7 +221,8 @@ class ContactModel(Model):
     def _check_range(self, velocity: float) -> None:
         if velocity > self.params.max_velocity_mps:
             raise SignalError(f"velocity {velocity:g} m/s is past this effect's range (0 to "
-                              f"{self.params.max_velocity_mps:g} m/s); raise model.max_velocity_mps to render it")
+                              f"{self.params.max_velocity_mps:g} m/s); raise model.max_velocity_mps to render it",
+                              source=self.context.source)
 
     def describe(self) -> dict:
         from ..droprig.contact import material
