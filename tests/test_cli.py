@@ -139,6 +139,16 @@ def test_usage_error_is_clean_exit_2():
     assert r.returncode == 2 and "No such option: --bogus" in r.stderr and "Traceback" not in r.stderr
 
 
+@pytest.mark.parametrize("args, line", [
+    (("bench", "interpolators", "--protocol", "nope"),
+     "hapticfx: error: --protocol: unknown protocol 'nope'; one of: lovo, looo, paper, generalisation"),
+    (("bench", "safety", "--only", "nope"), "hapticfx: error: --only: unknown case(s): nope; --list shows them"),
+])
+def test_a_bench_option_out_of_its_list_is_one_error_line_before_any_work(args, line):
+    r = hfx(*args)
+    assert r.returncode == 2 and r.stderr.strip() == line and r.stdout == ""
+
+
 def test_version_names_hapticfx_and_its_plugins():
     r = hfx("--version")
     assert r.returncode == 0 and r.stdout.startswith("hapticfx 0.1.0") and "hapticfx-soundcard" in r.stdout

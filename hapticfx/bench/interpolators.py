@@ -24,7 +24,7 @@ def interpolators(
                                 help="Comma-separated rows: interpolator names, or rows named in --config. linear "
                                 "is always included: every ratio is against it. Default: the shipped effects' "
                                 "ensemble-warp beside ensemble."),
-    protocol: str = typer.Option("lovo", "--protocol", metavar="lovo|looo|paper",
+    protocol: str = typer.Option("lovo", "--protocol", metavar="lovo|looo|paper|generalisation",
                                  help="lovo: leave each interior velocity of every object out "
                                  "in turn (any dataset); looo: leave each object out in turn (no training target "
                                  "from it; its interior velocities predicted from its neighbours); paper: the "
@@ -63,8 +63,12 @@ def interpolators(
     of the gap to the floors the recorded drops set, with bootstrap CIs; run time. Works on datasets whose
     objects have different velocities."""
     from ..evaluation import protocol as gen
+    from ..evaluation.folds import PROTOCOLS
     from ..evaluation.runner import Method, methods_from
 
+    if protocol not in (*PROTOCOLS, "generalisation"):
+        raise EffectError(f"unknown protocol {protocol!r}; one of: {', '.join(PROTOCOLS)}, generalisation",
+                          key="--protocol")
     names = [m.strip() for m in methods.split(",") if m.strip()]
     rows = methods_from(names, config)
     training = {k: v for k, v in (("epochs", epochs), ("seed", seed)) if v is not None}

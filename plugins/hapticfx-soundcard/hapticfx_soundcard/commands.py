@@ -12,7 +12,7 @@ from typing import Optional
 
 import numpy as np
 import typer
-from hapticfx.errors import SignalError
+from hapticfx.errors import HapticfxError, SignalError
 from hapticfx.progress import Progress, say
 
 
@@ -370,8 +370,7 @@ def bench_safety(
     chosen = [c.strip() for c in only.split(",") if c.strip()] or list(cases)
     unknown = [c for c in chosen if c not in cases]
     if unknown:
-        typer.echo(f"unknown case(s): {', '.join(unknown)}; --list shows them", err=True)
-        raise typer.Exit(2)
+        raise HapticfxError(f"unknown case(s): {', '.join(unknown)}; --list shows them", key="--only")
     load = os.getloadavg()
     typer.echo(f"# hapticfx bench safety --runs {runs}: {platform.node()}, {os.cpu_count()} CPUs, "
                f"{datetime.now(timezone.utc):%Y-%m-%d}, load {load[0]:.1f} {load[1]:.1f} {load[2]:.1f}")
