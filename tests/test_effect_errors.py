@@ -50,6 +50,10 @@ CASES = [
     ("unknown actuator plugin",
      GOOD.replace("type: memory", "type: rumble-pak"),
      "{f}: actuator.type: unknown actuator 'rumble-pak'; installed: "),
+    ("a pulse shorter than a sample",
+     GOOD.replace("pulse_ms: 30", "pulse_ms: 0.4"),
+     "{f}: model.pulse_ms: pulse_ms 0.4 is under half a sample at rate_hz 1000: the pulse would be silent; "
+     "give more than 0.5 ms"),
     ("unknown actuator key lists the core keys too",
      GOOD.replace("gain: 0.8", "gian: 0.8"),
      "{f}: actuator: unknown key 'gian'; allowed: type, device, channel, gain, full_scale_g, limits, rate_hz, keep_mib"),

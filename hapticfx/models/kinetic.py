@@ -44,6 +44,10 @@ class KineticEnergyModel(Model):
             )
         n = max(1, int(round(params.duration_ms * params.rate_hz / 1000.0)))
         width = int(round(params.pulse_ms * params.rate_hz / 1000.0))
+        if width == 0:
+            raise EffectError(f"pulse_ms {params.pulse_ms:g} is under half a sample at rate_hz {params.rate_hz:g}: "
+                              f"the pulse would be silent; give more than {500.0 / params.rate_hz:g} ms",
+                              source=context.source, key="model.pulse_ms")
         self._pulse = np.zeros(n)
         self._pulse[1 : 1 + width] = 1.0  # sample 0 is t = 0
         self._pulse.setflags(write=False)
