@@ -56,6 +56,13 @@ def test_bench_contact_rejects_unknown_solver(capsys):
     assert code == 2 and "unknown solver 'Euler'" in err
 
 
+def test_bench_contact_times_renders_that_integrate_up_to_its_fastest_velocity():
+    """The render rows time direct integration (the model's default serves a table up to 10 m/s: the grid's
+    50 m/s was refused, and every other render would have built a table first)."""
+    rows = contact_bench.renders(stiffness=(1e6,), masses=(0.1,), velocities=(0.5, 50.0), repeats=1)
+    assert rows[0]["renders"] == 2 and rows[0]["peak_g"][1] > rows[0]["peak_g"][0] > 0
+
+
 def test_bench_rows_measure_error_against_the_reference():
     case = contact_bench.Case("short", 1e7, 3.96, duration_s=0.02)
     rows = contact_bench.run(cases=[case], solvers=["RK45", "LSODA"], rtols=[1e-3, 1e-8], repeats=1)
