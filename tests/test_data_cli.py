@@ -121,3 +121,27 @@ def test_builtin_dataset_banks_agree_with_its_raw_drops(capsys):
     code, out, err = run(capsys, "bench", "reducers", "--repeats", 2, "--number", 2, "--samples", 5000)
     assert code == 0, err
     assert "helmet-drops" in out.splitlines()[0]
+
+
+def test_pick_refuses_a_builtin_dataset_which_is_part_of_the_installed_package(dataset, capsys, monkeypatch):
+    import hapticfx.data.dataset as dataset_module
+
+    monkeypatch.setattr(dataset_module, "BUILTIN_DIR", dataset.parent)  # the toy dataset as builtin:ds
+    before = {p: p.read_bytes() for p in dataset.rglob("*") if p.is_file()}
+    for ref in (f"builtin:{dataset.name}", dataset):  # by name or by its path inside the package
+        code, _, err = run(capsys, "data", "pick", "wood-beam", 3.13, 1, "--dataset", ref)
+        assert code == 2 and err.count("\n") == 1 and "builtin:ds is installed with hapticfx" in err
+        assert f"copy it first (cp -r {dataset} my-drops)" in err
+    assert {p: p.read_bytes() for p in dataset.rglob("*") if p.is_file()} == before
+
+
+@pytest.mark.parametrize("velocity", ["nan", "3.5"])
+def test_pick_and_plot_refuse_a_velocity_that_is_not_recorded(dataset, tmp_path, capsys, velocity):
+    before = (dataset / "dataset.json").read_bytes()
+    code, _, err = run(capsys, "data", "pick", "wood-beam", velocity, 1, "--dataset", dataset)
+    assert code == 2 and err.count("\n") == 1
+    assert f"wood-beam has no drops at {velocity} m/s; recorded: 2.42, 3.13, 3.96" in err
+    assert (dataset / "dataset.json").read_bytes() == before
+    code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "--velocity", velocity,
+                       "-o", tmp_path / "p.png")
+    assert code == 2 and "has no drops at" in err and not (tmp_path / "p.png").exists()

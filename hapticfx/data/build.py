@@ -154,7 +154,7 @@ def recorded_index(object_id: str, velocities: np.ndarray, velocity_mps: float) 
     """The index of the recorded velocity ``velocity_mps`` names (the nearest, within half the last printed
     decimal); ``DatasetError`` listing the recorded ones when none is that close."""
     near = np.abs(np.asarray(velocities, dtype=np.float64) - velocity_mps)
-    if not near.size or near.min() > 0.5 * 10.0 ** -VELOCITY_DECIMALS + 1e-12:
+    if not near.size or not near.min() <= 0.5 * 10.0 ** -VELOCITY_DECIMALS + 1e-12:  # NaN is near nothing
         raise DatasetError(f"{object_id} has no drops at {velocity_text(velocity_mps)} m/s; recorded: "
                            + ", ".join(velocity_text(v) for v in velocities))
     return int(np.argmin(near))
@@ -165,11 +165,15 @@ def set_representative(path: Path, object_id: str, velocity_mps: float, drop: in
     """Set (``drop``) or clear (``None``) the manual representative of one velocity and rebuild the banks.
 
     The override is stored in the dataset's metadata; the raw recordings, sensor,
-    provenance, preprocessing and reducers are kept.
+    provenance, preprocessing and reducers are kept. A built-in dataset is part of the installed package
+    and is refused: pick in a copy of it.
     """
-    from .dataset import open_dataset
+    from .dataset import BUILTIN_DIR, BUILTIN_PREFIX, open_dataset
 
     ds = open_dataset(path)
+    if ds.path.resolve().is_relative_to(BUILTIN_DIR):
+        raise DatasetError(f"{BUILTIN_PREFIX}{ds.path.name} is installed with hapticfx and is not rewritten; "
+                           f"copy it first (cp -r {ds.path} my-drops) and pick in the copy")
     if object_id not in ds.objects:
         raise DatasetError(f"dataset {ds.name!r} has no object {object_id!r}; it has: {', '.join(ds.objects)}")
     recordings = []
