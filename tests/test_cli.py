@@ -248,6 +248,21 @@ def test_render_replaces_the_csv_it_wrote_and_not_another(tmp_path, write_effect
     assert mine.read_text() == "a,b\n1,2\n"
 
 
+def test_schema_replaces_the_schema_it_wrote_and_not_another_file(tmp_path):
+    out = tmp_path / "effect.schema.json"
+    for _ in range(2):
+        r = hfx("schema", "--out", out)
+        assert r.returncode == 0, r.stderr
+    mine = tmp_path / "user.json"
+    mine.write_text('{"precious": true}\n')
+    r = hfx("schema", "-o", mine)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1
+    assert "user.json: exists and was not written by hapticfx; use --force" in r.stderr
+    assert mine.read_text() == '{"precious": true}\n'
+    r = hfx("schema", "-o", mine, "--force")
+    assert r.returncode == 0 and mine.read_text() == out.read_text()
+
+
 def test_plugins_and_study_check_print_json():
     listed = json.loads(hfx("plugins", "--json").stdout)
     assert {"kind": "model", "name": "kinetic-energy", "plugin": "hapticfx.builtins.core", "distribution": "hapticfx"}.items() \

@@ -145,3 +145,18 @@ def test_pick_and_plot_refuse_a_velocity_that_is_not_recorded(dataset, tmp_path,
     code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "--velocity", velocity,
                        "-o", tmp_path / "p.png")
     assert code == 2 and "has no drops at" in err and not (tmp_path / "p.png").exists()
+
+
+def test_plot_replaces_its_own_png_and_not_a_users_file(dataset, tmp_path, capsys):
+    png = tmp_path / "fig.png"
+    for _ in range(2):  # the second run replaces the plot the first wrote
+        code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", png)
+        assert code == 0, err
+    for name in ("n.png", "notes.txt"):
+        mine = tmp_path / name
+        mine.write_text("precious")
+        code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", mine)
+        assert code == 2 and err.count("\n") == 1 and f"{mine}: exists and was not written by hapticfx; use --force" in err
+        assert mine.read_text() == "precious"
+    code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", mine, "--force")
+    assert code == 0 and mine.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

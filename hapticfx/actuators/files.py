@@ -1,9 +1,9 @@
 """Writers for rendered signals: WAV (streamed, PCM by default) and CSV (whole or streamed), all atomic.
 
 Every WAV hapticfx writes names its software in a ``LIST/INFO/ISFT`` chunk, and
-every PNG in a ``Software`` text chunk (a CSV starts with hapticfx's header row), so that an output path holding a file
-hapticfx did not write is not replaced without an explicit ``--force`` /
-``overwrite: true`` (:func:`check_overwrite`).
+every PNG in a ``Software`` text chunk (a CSV starts with hapticfx's header row, the JSON Schema with its
+``$id``), so that an output path holding a file hapticfx did not write is not replaced without an explicit
+``--force`` / ``overwrite: true`` (:func:`check_overwrite`).
 """
 
 from __future__ import annotations
@@ -26,11 +26,13 @@ DEFAULT_WAV_FORMAT = "pcm24"
 
 # The header rows of the CSV files `render --out x.csv` writes (a CSV has no place for a software tag).
 CSV_HEADERS = ("t_s,profile_g", "t_s,profile_fraction")
+# How the JSON Schema `hapticfx schema --out` writes starts (keys sorted: "$id" first; hapticfx.schema.SCHEMA_ID).
+SCHEMA_START = b'{\n  "$id": "https://hapticfx.invalid/schema/'
 
 
 def written_by_hapticfx(path: Path) -> bool:
-    """Whether ``path`` is a WAV or PNG file that carries hapticfx's software tag, or a CSV file that
-    starts with one of the header rows hapticfx writes (``CSV_HEADERS``)."""
+    """Whether ``path`` is a WAV or PNG file that carries hapticfx's software tag, a CSV file that
+    starts with one of the header rows hapticfx writes (``CSV_HEADERS``), or hapticfx's JSON Schema."""
     try:
         with open(path, "rb") as f:
             head = f.read(4096)
@@ -40,6 +42,8 @@ def written_by_hapticfx(path: Path) -> bool:
         return b"ISFT" in head and SOFTWARE in head[head.index(b"ISFT"):head.index(b"ISFT") + 32]
     if head[:8] == b"\x89PNG\r\n\x1a\n":
         return b"tEXtSoftware\x00" + SOFTWARE in head
+    if head.startswith(SCHEMA_START):
+        return True
     return head.split(b"\n", 1)[0].rstrip(b"\r").decode("latin-1") in CSV_HEADERS
 
 

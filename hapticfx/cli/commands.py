@@ -224,11 +224,16 @@ def plugins(as_json: bool = typer.Option(False, "--json", help=JSON_HELP)):
 
 
 def schema(out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="FILE",
-                                              help="Write to this file instead of stdout.")):
+                                              help="Write to this file instead of stdout."),
+           force: bool = typer.Option(False, "--force", help="Replace an output file that hapticfx did not write "
+                                      "(a schema it wrote is replaced anyway).")):
     """Print the JSON Schema of effect files (for editors), covering the installed plugins."""
+    from ..actuators.files import check_overwrite
     from ..atomic import atomic_path
     from ..schema import effect_schema
 
+    if out is not None:
+        check_overwrite(out, force=force)
     text = json.dumps(effect_schema(), indent=2, sort_keys=True) + "\n"
     if out is None:
         typer.echo(text, nl=False)

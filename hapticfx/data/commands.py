@@ -103,11 +103,15 @@ def plot(
     velocity: Optional[float] = typer.Option(None, metavar="M/S",
                                              help="Velocity (m/s) whose drops are drawn (default: middle one)."),
     out: Path = typer.Option(Path("profiles.png"), "--out", "-o", metavar="PNG", help="PNG file to write."),
+    force: bool = typer.Option(False, "--force", help="Replace an output file that hapticfx did not write "
+                               "(a plot it wrote is replaced anyway)."),
 ):
     """Plot the drops at one velocity with the chosen representative, and the profiles across velocities."""
+    from ..actuators.files import check_overwrite
     from .dataset import open_dataset
     from .plot import plot_object
 
+    check_overwrite(out, force=force)
     typer.echo(str(plot_object(open_dataset(dataset), object, out, reducer=reducer, velocity=velocity)))
 
 

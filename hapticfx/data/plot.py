@@ -61,7 +61,7 @@ def plot_object(ds: Dataset, object_id: str, out: Path, *, reducer: str = "max-m
     out = Path(out)
     try:
         with atomic_path(out, make_parents=True) as tmp:
-            fig.savefig(tmp, dpi=110, format="png")
+            fig.savefig(tmp, dpi=110, format="png", metadata={"Software": "hapticfx"})  # ours to replace
     finally:
         plt.close(fig)
     return out
