@@ -18,6 +18,37 @@ def user_path(text) -> Path:
         return Path(text)
 
 
+def named(exc: OSError, path: Path) -> OSError:
+    """``exc``; or, where it names a hidden temporary beside ``path`` (:func:`temporary_beside`) or a file in
+    one, the same error naming ``path``: the file the user asked for, not one they never saw."""
+    hidden = os.path.abspath(path.parent / f".{path.name}.")
+    if any(n is not None and os.path.abspath(os.fsdecode(n)).startswith(hidden) for n in (exc.filename, exc.filename2)):
+        return OSError(exc.errno, exc.strerror, str(path))  # errno picks the subclass (PermissionError, ...)
+    return exc
+
+
+@contextmanager
+def naming(path: Path):
+    """A block whose errors name ``path`` where they would name its hidden temporary (:func:`named`)."""
+    try:
+        yield
+    except OSError as exc:
+        mine = named(exc, path)
+        if mine is exc:
+            raise
+        raise mine from exc
+
+
+def temporary_beside(path: Path, *, folder: bool = False) -> Path:
+    """A new hidden file (or folder) beside ``path``, to be written and then moved into place."""
+    with naming(path):
+        if folder:
+            return Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+        os.close(fd)
+        return Path(tmp)
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike, *, make_parents: bool = False):
     """Yield a temporary path beside ``path``; move it into place only if the block succeeds."""
@@ -28,14 +59,14 @@ def atomic_path(path: str | os.PathLike, *, make_parents: bool = False):
         path.parent.mkdir(parents=True, exist_ok=True)
     elif not path.parent.exists():
         raise HapticfxError(f"{path.parent}: directory does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
+    tmp = temporary_beside(path)
     umask = os.umask(0)
     os.umask(umask)
     try:
-        yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
-        os.replace(tmp, path)
+        with naming(path):
+            yield tmp
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
+            os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise

@@ -248,6 +248,12 @@ def test_render_replaces_the_csv_it_wrote_and_not_another(tmp_path, write_effect
     assert mine.read_text() == "a,b\n1,2\n"
 
 
+def test_a_write_that_fails_names_the_output_not_its_hidden_temporary(tmp_path, write_effect):
+    (tmp_path / "afile").write_text("x")
+    r = hfx("render", write_effect(KE % "memory"), "-o", tmp_path / "afile" / "x.csv")
+    assert r.returncode == 2 and r.stderr == f"hapticfx: error: {tmp_path / 'afile' / 'x.csv'}: Not a directory\n"
+
+
 def test_schema_replaces_the_schema_it_wrote_and_not_another_file(tmp_path):
     out = tmp_path / "effect.schema.json"
     for _ in range(2):

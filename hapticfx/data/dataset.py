@@ -21,7 +21,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import tempfile
 import threading
 import struct
 import tokenize
@@ -32,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import user_path
+from ..atomic import named, naming, temporary_beside, user_path
 from ..errors import DatasetError, HapticfxError, SignalError, one_line, preview
 from ..objects import ObjectInfo, valid_object_id
 from .bank import ProfileBank
@@ -261,7 +260,7 @@ class DatasetWriter:
         if self.out.exists() and not self.overwrite:
             raise DatasetError(f"{self.out}: already exists (use --force to replace it)")
         self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", dir=self.out.parent))
+        self.tmp = temporary_beside(self.out, folder=True)
         # mkdtemp makes the directory private (0700); a dataset is as readable as any new directory.
         umask = os.umask(0o022)
         os.umask(umask)
@@ -295,14 +294,17 @@ class DatasetWriter:
     def __exit__(self, exc_type, exc, tb):
         if exc_type is not None:
             shutil.rmtree(self.tmp, ignore_errors=True)
+            if isinstance(exc, OSError) and named(exc, self.out) is not exc:
+                raise named(exc, self.out) from exc
             return False
-        (self.tmp / "dataset.json").write_text(json.dumps(self.meta, indent=2, sort_keys=True) + "\n")
-        if self.out.exists():
-            backup = self.out.with_name(f".{self.out.name}.old")
-            shutil.rmtree(backup, ignore_errors=True)
-            os.replace(self.out, backup)
-            os.replace(self.tmp, self.out)
-            shutil.rmtree(backup, ignore_errors=True)
-        else:
-            os.replace(self.tmp, self.out)
+        with naming(self.out):
+            (self.tmp / "dataset.json").write_text(json.dumps(self.meta, indent=2, sort_keys=True) + "\n")
+            if self.out.exists():
+                backup = self.out.with_name(f".{self.out.name}.old")
+                shutil.rmtree(backup, ignore_errors=True)
+                os.replace(self.out, backup)
+                os.replace(self.tmp, self.out)
+                shutil.rmtree(backup, ignore_errors=True)
+            else:
+                os.replace(self.tmp, self.out)
         return False

@@ -179,9 +179,10 @@ def bench_contact(
         typer.echo("\n## work precision of the integration\n")
         typer.echo(contact_bench.table(rows))
     if out is not None:
-        tmp = out.with_name(f".{out.name}.tmp")
-        tmp.write_text(json.dumps({"renders": render_rows, "solvers": rows}, indent=2) + "\n")
-        tmp.replace(out)
+        from ..atomic import atomic_path
+
+        with atomic_path(out) as tmp:
+            tmp.write_text(json.dumps({"renders": render_rows, "solvers": rows}, indent=2) + "\n")
         typer.echo(f"wrote {out}")
 
 
