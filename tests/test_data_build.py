@@ -80,6 +80,7 @@ def test_unsorted_velocities_are_sorted_with_their_drops():
     ([2.0, 3.0], (2, 1, 100, 2), r"shape \(2, drops, samples, 3\)"),
     ([0.0, 3.0], (2, 1, 100, 3), "must be > 0"),
     ([np.nan, 3.0], (2, 1, 100, 3), "non-finite"),
+    ([2.0], (1, 1, 100, 3), "needs drops at 2 or more velocities"),
 ])
 def test_bad_recordings_are_rejected(velocities, shape, match):
     with pytest.raises(DatasetError, match=match):
@@ -95,6 +96,8 @@ def test_failure_leaves_nothing_behind(tmp_path):
         build_dataset(tmp_path / "ds", recordings(), **META)
     with pytest.raises(PluginError, match="unknown reducer 'nope'"):
         build_dataset(tmp_path / "ds", _recs(), reducers=("nope",), **META)
+    with pytest.raises(DatasetError, match="recorder failed"):  # nor the folders it made for the dataset
+        build_dataset(tmp_path / "new" / "sub" / "ds", recordings(), **META)
     assert list(tmp_path.iterdir()) == []
 
 

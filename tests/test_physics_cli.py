@@ -46,6 +46,29 @@ def test_data_synth_bad_input_is_one_line(tmp_path, capsys, argv, message):
     assert not (tmp_path / "x").exists()
 
 
+def test_data_synth_checks_its_input_and_output_before_simulating(tmp_path, capsys, monkeypatch):
+    one = ("--objects", "concrete-brick", "--drops", 1, "--jobs", 1)
+    (tmp_path / "afile").write_text("x")
+    for out, argv, message in (
+        ("x", ("--seed", -1), "Invalid value for '--seed': -1 is not in the range 0<=x<=4294967295"),
+        ("x", ("--velocities", ""), "--velocities is empty"),  # not the default 12
+        ("nodir/x/s", ("--velocities", 3), "object 'concrete-brick': needs drops at 2 or more velocities"),
+        ("afile/s", ("--velocities", "3,4"), "afile: not a folder"),
+    ):
+        code, _, err = run(capsys, "data", "synth", tmp_path / out, *one, *argv)
+        assert code == 2 and message in err and "done" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+    import tempfile
+
+    def refused(*args, dir, **kw):
+        raise PermissionError(13, "Permission denied", f"{dir}/.s.hidden")
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refused)  # a folder it may not write in, even as root
+    code, _, err = run(capsys, "data", "synth", tmp_path / "s", *one, "--velocities", "3,4")
+    assert code == 2 and err == f"hapticfx: error: {tmp_path / 's'}: cannot be written (Permission denied)\n"
+
+
 def test_data_synth_builtin_takes_no_other_choices(capsys):
     code, _, err = run(capsys, "data", "synth", "--builtin", "--drops", 3)
     assert code == 2 and "--builtin regenerates the packaged dataset exactly" in err

@@ -42,20 +42,32 @@ class ObjectRecordings:
 
     def __post_init__(self):
         label = f"object {self.info.id!r}"
+        v = check_velocities(self.velocities_mps, label)
         try:
-            v = valid_signal(self.velocities_mps, name=f"{label} velocities_mps", ndim=1)
             a = valid_signal(self.accel_g, name=f"{label} accel_g", ndim=4)
         except HapticfxError as exc:
             raise DatasetError(str(exc)) from None
         if a.shape[0] != v.shape[0] or a.shape[-1] != 3:
             raise DatasetError(f"{label}: accel_g must have shape ({v.shape[0]}, drops, samples, 3), got {a.shape}")
-        if np.any(v <= 0):
-            raise DatasetError(f"{label}: velocities must be > 0 m/s, got {v.tolist()}")
         order = np.argsort(v, kind="stable")
-        if np.any(np.diff(v[order]) <= 0):
-            raise DatasetError(f"{label}: velocity recorded twice in {v.tolist()}; put all drops of a velocity together")
         self.velocities_mps = v[order]
         self.accel_g = a[order]
+
+
+def check_velocities(velocities, label: str) -> np.ndarray:
+    """The recorded velocities of one object (``label`` names it) as an array: finite, > 0 m/s, each once,
+    and at least two, which a dataset's models interpolate between."""
+    try:
+        v = valid_signal(velocities, name=f"{label} velocities_mps", ndim=1)
+    except HapticfxError as exc:
+        raise DatasetError(str(exc)) from None
+    if np.any(v <= 0):
+        raise DatasetError(f"{label}: velocities must be > 0 m/s, got {v.tolist()}")
+    if len(np.unique(v)) < len(v):
+        raise DatasetError(f"{label}: velocity recorded twice in {v.tolist()}; put all drops of a velocity together")
+    if len(v) < 2:
+        raise DatasetError(f"{label}: needs drops at 2 or more velocities to interpolate between, got {v.tolist()}")
+    return v
 
 
 def _check_reducers(reducers) -> list[tuple[str, object]]:

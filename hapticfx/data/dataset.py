@@ -241,6 +241,21 @@ def _check_meta(meta: dict, where: Path) -> None:
         raise DatasetError(str(exc), source=str(where), key="preprocessing") from None
 
 
+def check_output(out: Path, *, overwrite: bool) -> None:
+    """Refuse, before any work, a dataset folder ``out`` that exists (unless ``overwrite``) or that could not
+    be written where it goes (its folder, or the nearest one there is when that is to be made)."""
+    out = Path(out)
+    if out.exists() and not overwrite:
+        raise DatasetError(f"{out}: already exists (use --force to replace it)")
+    folder = next(p for p in out.parents if p.exists())
+    if not folder.is_dir():
+        raise DatasetError(f"{folder}: not a folder")
+    try:
+        temporary_beside(folder / out.name, folder=True).rmdir()
+    except OSError as exc:
+        raise DatasetError(f"{out}: cannot be written ({exc.strerror})") from None
+
+
 class DatasetWriter:
     """Writes a dataset into a temporary directory and moves it into place on success.
 
@@ -255,10 +270,11 @@ class DatasetWriter:
             "rate_hz": float(rate_hz), "n_samples": int(n_samples), "objects": {}, **meta,
         }
         self.tmp: Path | None = None
+        self.made: list[Path] = []  # the folders made for it, deepest first: removed again if it fails
 
     def __enter__(self) -> "DatasetWriter":
-        if self.out.exists() and not self.overwrite:
-            raise DatasetError(f"{self.out}: already exists (use --force to replace it)")
+        check_output(self.out, overwrite=self.overwrite)
+        self.made = [p for p in self.out.parents if not p.exists()]
         self.out.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = temporary_beside(self.out, folder=True)
         # mkdtemp makes the directory private (0700); a dataset is as readable as any new directory.
@@ -294,6 +310,11 @@ class DatasetWriter:
     def __exit__(self, exc_type, exc, tb):
         if exc_type is not None:
             shutil.rmtree(self.tmp, ignore_errors=True)
+            for folder in self.made:
+                try:
+                    folder.rmdir()
+                except OSError:  # something else is in it now
+                    break
             if isinstance(exc, OSError) and named(exc, self.out) is not exc:
                 raise named(exc, self.out) from exc
             return False

@@ -12,6 +12,7 @@ import typer
 
 from ..errors import DatasetError, SignalError
 from ..progress import say
+from . import MAX_SEED
 
 
 def _floats(text: str, *, option: str) -> list[float]:
@@ -31,12 +32,13 @@ def synth(
     builtin: bool = typer.Option(False, "--builtin", help="Regenerate the packaged builtin:helmet-drops dataset."),
     objects: str = typer.Option("all", "--objects", metavar="ID,...",
                                 help="Comma-separated built-in object ids, or 'all'."),
-    velocities: str = typer.Option("", "--velocities", metavar="M/S,...",
-                                   help="Comma-separated velocities in m/s (default: the paper's 12)."),
+    velocities: Optional[str] = typer.Option(None, "--velocities", metavar="M/S,...",
+                                             help="Comma-separated velocities in m/s, 2 or more "
+                                             "(default: the paper's 12)."),
     drops: Optional[int] = typer.Option(None, "--drops", metavar="COUNT", min=1, max=1000,
                                         help="Drops per velocity (default: 10, or the --spec's count, which this "
                                              "replaces: the same rig and objects recorded more or fewer times)."),
-    seed: int = typer.Option(20230417, "--seed", metavar="SEED",
+    seed: int = typer.Option(20230417, "--seed", metavar="SEED", min=0, max=MAX_SEED,
                              help="Random seed: the same seed gives the same recordings."),
     workers: int = typer.Option(0, "--jobs", "-j", "--workers", metavar="COUNT", min=0, max=256,
                                 help="Processes simulating drops in parallel (joblib, loky); 0: every core. "
@@ -64,7 +66,7 @@ def synth(
     if heldout is not None:
         from ..evaluation import heldout as held
 
-        if builtin or spec is not None or objects != "all" or velocities or drops is not None \
+        if builtin or spec is not None or objects != "all" or velocities is not None or drops is not None \
                 or seed != sim.BUILTIN_SEED:
             raise DatasetError("--heldout simulates a fixed spec; it takes no --builtin, --spec, --objects, "
                                "--velocities, --drops or --seed")
@@ -78,7 +80,8 @@ def synth(
         typer.echo(f"done in {time.perf_counter() - started:.1f} s")
         return
     if builtin:
-        if out is not None or objects != "all" or velocities or drops is not None or seed != sim.BUILTIN_SEED:
+        if out is not None or objects != "all" or velocities is not None or drops is not None \
+                or seed != sim.BUILTIN_SEED:
             raise DatasetError("--builtin regenerates the packaged dataset exactly; it takes no OUT, --objects, "
                                "--velocities, --drops or --seed")
         path = sim.synth_builtin(workers=workers, progress=say)
@@ -87,7 +90,7 @@ def synth(
 
         if out is None:
             raise DatasetError("give an output directory for --spec")
-        if objects != "all" or velocities or seed != sim.BUILTIN_SEED:
+        if objects != "all" or velocities is not None or seed != sim.BUILTIN_SEED:
             raise DatasetError("--spec gives the objects, velocities and seed; drop --objects, --velocities and "
                                "--seed")
         s = load_spec(spec)
@@ -100,7 +103,7 @@ def synth(
             raise DatasetError("give an output directory (or --builtin)")
         infos = list(PAPER_OBJECTS.values()) if objects == "all" else [
             builtin_object(o.strip(), key="--objects") for o in objects.split(",") if o.strip()]
-        vs = _floats(velocities, option="--velocities") if velocities else list(sim.PAPER_VELOCITIES)
+        vs = list(sim.PAPER_VELOCITIES) if velocities is None else _floats(velocities, option="--velocities")
         drops = drops or sim.BUILTIN_DROPS
         command = (f"hapticfx data synth {out} --objects {','.join(i.id for i in infos)} "
                    f"--velocities {','.join(f'{v:g}' for v in vs)} --drops {drops} --seed {seed}")

@@ -39,6 +39,7 @@ from pathlib import Path
 from ..effect import read_yaml
 from ..errors import EffectError
 from ..objects import ObjectInfo
+from . import MAX_SEED
 from .contact import MATERIALS
 from .receiver import RECEIVERS, Receiver, ShellMode
 from .sensor import Accelerometer
@@ -169,7 +170,7 @@ def load_spec(path: Path) -> SynthSpec:
     return SynthSpec(objects, velocities, rig,
                      int(_number(data.get("drops", BUILTIN_DROPS), source, "drops", minimum=1, maximum=1000,
                                  integer=True)),
-                     int(_number(data.get("seed", BUILTIN_SEED), source, "seed", minimum=0, maximum=2**32 - 1,
+                     int(_number(data.get("seed", BUILTIN_SEED), source, "seed", minimum=0, maximum=MAX_SEED,
                                  integer=True)),
                      data.get("name"), _variation(data.get("variation"), source))
 

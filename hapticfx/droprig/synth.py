@@ -239,16 +239,17 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
     ``velocities``: one list for every object, or a mapping object id -> its own list. ``variation``: the
     drop-to-drop spread of every object (default: :meth:`Variation.for_object`).
     """
-    from ..data.build import ObjectRecordings, build_dataset
+    from ..data.build import ObjectRecordings, build_dataset, check_velocities
+    from ..data.dataset import check_output
 
     rig = rig or Rig()
     objects = list(objects)
     if not objects:
         raise DatasetError("no objects to simulate")
-    if Path(out).exists() and not overwrite:  # before minutes of simulation, not after
-        raise DatasetError(f"{out}: already exists (use --force to replace it)")
-    per_object = {o.id: np.asarray(velocities[o.id] if isinstance(velocities, dict) else velocities, dtype=np.float64)
-                  for o in objects}
+    # what would fail in writing the dataset fails before minutes of simulation, not after
+    per_object = {o.id: check_velocities(velocities[o.id] if isinstance(velocities, dict) else velocities,
+                                         f"object {o.id!r}") for o in objects}
+    check_output(Path(out), overwrite=overwrite)
     started = time.perf_counter()
     recordings = [
         ObjectRecordings(info, per_object[info.id], record_drops(info, per_object[info.id], drops, seed=seed, rig=rig,
