@@ -18,6 +18,14 @@ def user_path(text) -> Path:
         return Path(text)
 
 
+def existing_folder(path: Path) -> Path:
+    """The nearest of ``path`` and the folders above it that exists: a folder, else an error naming the file."""
+    there = next(p for p in (path, *path.parents) if p.exists())
+    if not there.is_dir():
+        raise HapticfxError(f"{there}: not a folder")
+    return there
+
+
 def named(exc: OSError, path: Path) -> OSError:
     """``exc``; or, where it names a hidden temporary beside ``path`` (:func:`temporary_beside`) or a file in
     one, the same error naming ``path``: the file the user asked for, not one they never saw."""
@@ -56,6 +64,7 @@ def atomic_path(path: str | os.PathLike, *, make_parents: bool = False):
     if path.is_dir():
         raise HapticfxError(f"{path}: is a directory, expected a file name")
     if make_parents:
+        existing_folder(path.parent)
         path.parent.mkdir(parents=True, exist_ok=True)
     elif not path.parent.exists():
         raise HapticfxError(f"{path.parent}: directory does not exist")

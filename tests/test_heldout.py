@@ -94,3 +94,29 @@ def test_data_draw_writes_specs_synth_reads_and_refuses_reserved_seeds(tmp_path)
                            capture_output=True, text=True)
         assert r.returncode == 2 and "reserved for the held-out evaluation sets" in r.stderr
         assert "Traceback" not in r.stderr and not (tmp_path / "no").exists()
+
+
+def test_data_draw_refuses_a_negative_seed_an_edited_spec_and_a_file_for_its_folder(tmp_path, capsys):
+    from hapticfx.cli import main
+
+    def draw(*argv):
+        with pytest.raises(SystemExit) as exit_:
+            main(["data", "draw", *map(str, argv)])
+        return exit_.value.code, capsys.readouterr().err
+
+    code, err = draw("--out", tmp_path / "d", "--", -5)
+    assert code == 2 and "-5 is not in the range 0<=x<=" in err and not (tmp_path / "d").exists()
+    spec = tmp_path / "d" / "draw-5.yaml"
+    for _ in range(2):  # the same draw again replaces its own file
+        assert draw(5, "--out", tmp_path / "d") == (0, "")
+    spec.write_text(spec.read_text() + "# my edit\n")
+    for argv in ((5,), (5, "--drops", 4)):
+        code, err = draw(*argv, "--out", tmp_path / "d")
+        assert code == 2 and err.count("\n") == 1 and f"{spec}: exists and is not this draw" in err
+        assert spec.read_text().endswith("# my edit\n")
+    assert draw(5, "--drops", 4, "--out", tmp_path / "d", "--force") == (0, "")
+    assert load_spec(spec).drops == 4
+    (tmp_path / "afile").write_text("x")
+    for out in (tmp_path / "afile", tmp_path / "afile" / "sub"):
+        code, err = draw(5, "--out", out)
+        assert code == 2 and err == f"hapticfx: error: {tmp_path / 'afile'}: not a folder\n"

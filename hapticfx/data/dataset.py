@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import named, naming, temporary_beside, user_path
+from ..atomic import existing_folder, named, naming, temporary_beside, user_path
 from ..errors import DatasetError, HapticfxError, SignalError, one_line, preview
 from ..objects import ObjectInfo, valid_object_id
 from .bank import ProfileBank
@@ -247,11 +247,8 @@ def check_output(out: Path, *, overwrite: bool) -> None:
     out = Path(out)
     if out.exists() and not overwrite:
         raise DatasetError(f"{out}: already exists (use --force to replace it)")
-    folder = next(p for p in out.parents if p.exists())
-    if not folder.is_dir():
-        raise DatasetError(f"{folder}: not a folder")
     try:
-        temporary_beside(folder / out.name, folder=True).rmdir()
+        temporary_beside(existing_folder(out.parent) / out.name, folder=True).rmdir()
     except OSError as exc:
         raise DatasetError(f"{out}: cannot be written ({exc.strerror})") from None
 

@@ -116,12 +116,15 @@ SIM_SEED_OFFSET = 10_000  # a drawn rig is simulated with its draw seed + this
 
 
 def draw(
-    seeds: list[int] = typer.Argument(..., metavar="SEED...", help="Draw seeds, one rig each."),
+    seeds: list[int] = typer.Argument(..., metavar="SEED...", min=0, max=MAX_SEED - SIM_SEED_OFFSET,
+                                      help="Draw seeds, one rig each."),
     out: Path = typer.Option(..., "--out", "-o", metavar="DIR", help="Folder for the specs (draw-SEED.yaml)."),
     drops: Optional[int] = typer.Option(None, "--drops", metavar="COUNT", min=1, max=1000,
                                         help="Drops per velocity (default: drawn, 3-12)."),
     spacing: Optional[str] = typer.Option(None, "--spacing", metavar="even|even-height|irregular",
                                           help="Velocity spacing of every object (default: drawn per object)."),
+    force: bool = typer.Option(False, "--force", help="Replace a spec file that is not this draw (one edited, or "
+                               "drawn with other options)."),
 ):
     """Draw rigs (helmet, sensor, 3-5 objects, their velocities and drop counts) from the ranges the held-out
     sets were drawn from, as `data synth --spec` files.
@@ -132,23 +135,29 @@ def draw(
     """
     import yaml
 
-    from ..atomic import atomic_path
+    from ..atomic import atomic_path, existing_folder
     from .draws import RANGES, check_pretraining_seed, draw_spec
 
     if spacing is not None and spacing not in RANGES["spacings"]:
         raise DatasetError(f"--spacing must be one of {', '.join(RANGES['spacings'])}, got {spacing!r}")
-    specs = {}
-    for seed in seeds:  # every seed checked before anything is written
+    existing_folder(out)
+    specs, texts = {}, {}
+    for seed in seeds:  # every seed and file checked before anything is written
         check_pretraining_seed(seed)
         check_pretraining_seed(seed + SIM_SEED_OFFSET)
         specs[seed] = draw_spec(seed, name=f"draw-{seed}", sim_seed=seed + SIM_SEED_OFFSET, drops=drops,
                                 spacing=spacing)
-    for seed, spec in specs.items():
         path = out / f"draw-{seed}.yaml"
         header = (f"# Drawn by `hapticfx data draw {seed}` from hapticfx.droprig.draws.RANGES"
                   f"{'' if drops is None else f' --drops {drops}'}{'' if spacing is None else f' --spacing {spacing}'}.\n")
+        texts[seed] = header + yaml.safe_dump(specs[seed], sort_keys=False)
+        if path.exists() and not force and not (path.is_file() and path.read_text(errors="replace") == texts[seed]):
+            raise DatasetError(f"{path}: exists and is not this draw (edited, or drawn with other options); "
+                               "use --force to replace it")
+    for seed, spec in specs.items():
+        path = out / f"draw-{seed}.yaml"
         with atomic_path(path, make_parents=True) as tmp:
-            tmp.write_text(header + yaml.safe_dump(spec, sort_keys=False))
+            tmp.write_text(texts[seed])
         objects = ", ".join(f"{o['material']} {o['mass_kg']:g} kg ({len(o['velocities_mps'])} v)"
                             for o in spec["objects"])
         typer.echo(f"{path}: {spec['drops']} drops; {objects}")
