@@ -160,3 +160,40 @@ def test_plot_replaces_its_own_png_and_not_a_users_file(dataset, tmp_path, capsy
         assert mine.read_text() == "precious"
     code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", mine, "--force")
     assert code == 0 and mine.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _spoil(dataset, what):
+    import json
+
+    meta_file = dataset / "dataset.json"
+    meta = json.loads(meta_file.read_text())
+    wood = meta["objects"]["wood-beam"]
+    if what == "bank representative":
+        bank = dataset / "banks" / "max-min" / "wood-beam.npz"
+        arrays = dict(np.load(bank))
+        np.savez_compressed(bank, **{**arrays, "representative": arrays["representative"] + 100})
+        return bank, "representative: 100 at index 0 where dataset.json's objects.wood-beam.representative.chosen has 0"
+    if what == "NaN velocity":
+        wood["velocities_mps"][1] = float("nan")
+        key = "velocities_mps"
+    elif what == "velocities cut":
+        wood["velocities_mps"] = wood["velocities_mps"][:2]
+        key = "representative.chosen"
+    elif what == "chosen out of range":
+        wood["representative"]["chosen"] = [99] * 3
+        key = "representative.chosen"
+    meta_file.write_text(json.dumps(meta))
+    return meta_file, f"objects.wood-beam.{key}: expected"
+
+
+@pytest.mark.parametrize("what", ["NaN velocity", "velocities cut", "chosen out of range", "bank representative"])
+def test_a_dataset_that_contradicts_itself_is_refused_where_it_is_loaded(dataset, tmp_path, capsys, what):
+    file, message = _spoil(dataset, what)
+    effect = tmp_path / "e.yaml"
+    effect.write_text(f"name: t\nobject: wood-beam\nvelocity_mps: 3.5\nmodel: {{type: data-driven, dataset: '{dataset}', "
+                      "reducer: max-min, interpolator: linear}\nactuator: {type: vibro-transducer}\n")
+    for argv in (("data", "info", dataset), ("data", "plot", "wood-beam", "--dataset", dataset, "-o", tmp_path / "p.png"),
+                 ("render", effect, "-o", tmp_path / "r.csv")):
+        code, _, err = run(capsys, *argv)
+        assert code == 2 and err.count("\n") == 1 and f"{file}: {message}" in err, (argv, err)
+    assert not (tmp_path / "p.png").exists() and not (tmp_path / "r.csv").exists()

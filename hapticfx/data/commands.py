@@ -127,6 +127,9 @@ def info(
     from .dataset import open_dataset
 
     ds = open_dataset(dataset)
+    for obj in ds.objects:  # each bank read and checked against dataset.json: a bad one is said here
+        for reducer in ds.reducers():
+            ds.bank(obj, reducer)
     m = ds.meta
     if as_json:
         show({"name": ds.name, "path": str(ds.path), **m}, as_json=True)

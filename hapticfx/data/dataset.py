@@ -124,6 +124,7 @@ class Dataset:
                         f"{file}: missing; dataset {self.name!r} has banks for: {', '.join(self.reducers()) or 'none'}"
                     )
                 arrays = load_npz(file, ("velocities_mps", "profiles_g"))
+                self._agree(file, object_id, arrays["velocities_mps"], representative=arrays.get("representative"))
                 try:
                     self._banks[key] = ProfileBank(
                         object_id, reducer, self.rate_hz, arrays["velocities_mps"], arrays["profiles_g"]
@@ -164,7 +165,27 @@ class Dataset:
         acc = arrays["accel_g"]
         if acc.ndim != 4 or acc.shape[-1] != 3 or acc.shape[0] != arrays["velocities_mps"].shape[0]:
             raise DatasetError(f"{file}: accel_g must have shape (V, drops, N, 3), got {acc.shape}")
+        self._agree(file, object_id, arrays["velocities_mps"], drops=acc.shape[1])
         return arrays["velocities_mps"].astype(np.float64), acc.astype(np.float64)
+
+    def _agree(self, file: Path, object_id: str, velocities: np.ndarray, *, drops: int | None = None,
+               representative: np.ndarray | None = None) -> None:
+        """Refuse arrays of ``file`` that disagree with what dataset.json says of the object: its velocities,
+        its number of drops a velocity, its representative drops."""
+        o = self._object_meta(object_id)
+        listed, chosen = o.get("velocities_mps"), o.get("representative", {}).get("chosen")
+        for key, got, meta_key, expected in (("velocities_mps", velocities, "velocities_mps", listed),
+                                             ("representative", representative, "representative.chosen", chosen)):
+            got = None if got is None else np.atleast_1d(got).tolist()
+            if got is None or expected is None or got == expected:
+                continue
+            i = next((i for i, (a, b) in enumerate(zip(got, expected)) if a != b), None)
+            raise DatasetError((f"{len(got)} values" if i is None else f"{preview(got[i])} at index {i}")
+                               + f" where dataset.json's objects.{object_id}.{meta_key} has "
+                               + (f"{len(expected)}" if i is None else preview(expected[i])), source=str(file), key=key)
+        if drops is not None and (o.get("n_drops", drops) != drops or max(chosen or [0]) >= drops):
+            raise DatasetError(f"{drops} drops a velocity where dataset.json has n_drops {o.get('n_drops')} and "
+                               f"representatives {preview(chosen)}", source=str(file), key="accel_g")
 
 
 def load_npz(file: Path, required: tuple[str, ...]) -> dict[str, np.ndarray]:
@@ -232,6 +253,9 @@ def _check_meta(meta: dict, where: Path) -> None:
         raise DatasetError("expected a mapping of object ids to their descriptions", source=str(where), key="objects")
     for obj, info in objects.items():
         number(f"objects.{obj}.mass_kg", info.get("mass_kg"), 1e-6, 1e4)
+        if "n_drops" in info:
+            number(f"objects.{obj}.n_drops", info["n_drops"], 1, 1_000_000, integer=True)
+        _check_drops_meta(info, f"objects.{obj}", where)
     prep = meta.get("preprocessing", {})
     if not isinstance(prep, dict):
         raise DatasetError("expected a mapping", source=str(where), key="preprocessing")
@@ -251,6 +275,42 @@ def check_output(out: Path, *, overwrite: bool) -> None:
         temporary_beside(existing_folder(out.parent) / out.name, folder=True).rmdir()
     except OSError as exc:
         raise DatasetError(f"{out}: cannot be written ({exc.strerror})") from None
+
+
+def _check_drops_meta(info: dict, key: str, where: Path) -> None:
+    """What one object's entry says of its drops: its velocities and the representative drop of each."""
+    def fail(sub: str, expected: str, value) -> None:
+        raise DatasetError(f"expected {expected}, got {preview(value)}", source=str(where), key=f"{key}.{sub}")
+
+    def real(v) -> bool:  # NaN fails the range test; a bound keeps a huge integer out of float arithmetic
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and -1e9 < v < 1e9
+
+    vs, drops = info.get("velocities_mps"), info.get("n_drops")
+    if vs is not None and not (isinstance(vs, list) and vs and all(real(v) and v > 0 for v in vs)
+                               and all(a < b for a, b in zip(vs, vs[1:]))):
+        fail("velocities_mps", "increasing velocities in m/s, each > 0", vs)
+    rep = info.get("representative")
+    if rep is None:
+        return
+    if not isinstance(rep, dict):
+        fail("representative", "a mapping", rep)
+
+    def index(i) -> bool:
+        return isinstance(i, int) and not isinstance(i, bool) and 0 <= i < (drops or float("inf"))
+
+    span = f"[0, {drops - 1}]" if drops else ">= 0"
+    each = f"each of the {len(vs)} velocities" if vs else "each velocity"
+    for part in ("chosen", "automatic"):
+        got = rep.get(part)
+        if (part == "chosen" or got is not None) and not (
+                isinstance(got, list) and (vs is None or len(got) == len(vs)) and all(index(i) for i in got)):
+            fail(f"representative.{part}", f"a drop index in {span} for {each}", got)
+    overrides = rep.get("overrides", [])
+    if not isinstance(overrides, list) or not all(
+            isinstance(o, dict) and index(o.get("drop")) and real(o.get("velocity_mps"))
+            and any(abs(o["velocity_mps"] - v) <= 1e-6 for v in (vs or [o["velocity_mps"]])) for o in overrides):
+        fail("representative.overrides", f"a list of {{velocity_mps: a recorded velocity, drop: an index in {span}}}",
+             overrides)
 
 
 class DatasetWriter:
