@@ -197,3 +197,12 @@ def test_a_dataset_that_contradicts_itself_is_refused_where_it_is_loaded(dataset
         code, _, err = run(capsys, *argv)
         assert code == 2 and err.count("\n") == 1 and f"{file}: {message}" in err, (argv, err)
     assert not (tmp_path / "p.png").exists() and not (tmp_path / "r.csv").exists()
+
+
+def test_tables_reads_every_bank_before_it_rewrites_any_table(dataset, capsys):
+    tables = {p: p.read_bytes() for p in (dataset / "tables").iterdir()}
+    assert any("dft321" in p.name for p in tables)  # dft321 comes first: it would be rewritten first
+    (dataset / "banks" / "max-min" / "steel-plate.npz").write_bytes(b"PK\x03\x04 not a zip")
+    code, _, err = run(capsys, "data", "tables", dataset)
+    assert code == 2 and err.count("\n") == 1 and "steel-plate.npz: corrupt or unreadable" in err
+    assert {p: p.read_bytes() for p in (dataset / "tables").iterdir()} == tables

@@ -44,11 +44,14 @@ def save_tables(data: TrainingData, folder: Path, *, progress=None) -> list[Path
 
 
 def write_tables(dataset, *, progress=None) -> list[Path]:
-    """Rewrite the fitted tables of every bank (reducer) of ``dataset``; returns the files."""
+    """Rewrite the fitted tables of every bank (reducer) of ``dataset``; returns the files.
+
+    Every bank and recording is read, and checked, before any table is written: a bad one leaves the
+    tables as they were, not some of them rewritten."""
     from ..data.training import training_data
 
-    return [path for reducer in dataset.reducers()
-            for path in save_tables(training_data(dataset, reducer), dataset.path, progress=progress)]
+    data = [training_data(dataset, reducer) for reducer in dataset.reducers()]
+    return [path for each in data for path in save_tables(each, dataset.path, progress=progress)]
 
 
 __all__ = ["FITTED", "describe", "save_tables", "write_tables"]
