@@ -206,3 +206,28 @@ def test_tables_reads_every_bank_before_it_rewrites_any_table(dataset, capsys):
     code, _, err = run(capsys, "data", "tables", dataset)
     assert code == 2 and err.count("\n") == 1 and "steel-plate.npz: corrupt or unreadable" in err
     assert {p: p.read_bytes() for p in (dataset / "tables").iterdir()} == tables
+
+
+def test_import_names_a_folder_as_a_folder_and_info_says_how_to_make_a_held_out_set(dataset, tmp_path, capsys,
+                                                                                     monkeypatch):
+    import shutil
+
+    from hapticfx.evaluation import heldout
+
+    (tmp_path / "csv_dir").mkdir()
+    code, _, err = run(capsys, "data", "import", tmp_path / "csv_dir", "-o", tmp_path / "x")
+    assert code == 2 and err.count("\n") == 1
+    assert f"csv_dir: a folder; give the CSV files in it ({tmp_path / 'csv_dir' / '*.csv'})" in err
+    code, _, err = run(capsys, "data", "import", tmp_path / "nodir", "-o", tmp_path / "x")
+    assert code == 2 and "nodir: file not found" in err and not (tmp_path / "x").exists()
+
+    monkeypatch.setenv("HAPTICFX_CACHE", str(tmp_path / "cache"))
+    code, _, err = run(capsys, "data", "info", "heldout:heldout-3drops")
+    assert code == 2 and err.count("\n") == 1
+    assert ("heldout:heldout-3drops: not simulated on this machine yet; make it with "
+            "`hapticfx data synth --heldout heldout-3drops`") in err
+    code, _, err = run(capsys, "data", "info", "heldout:nope")
+    assert code == 2 and "no held-out set 'nope'; known: heldout-irregular" in err
+    shutil.copytree(dataset, heldout.dataset_path("heldout-3drops"))  # as if simulated: info reads it
+    code, out, err = run(capsys, "data", "info", "heldout:heldout-3drops")
+    assert code == 0 and f"path: {heldout.dataset_path('heldout-3drops')}" in out, err

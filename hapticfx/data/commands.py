@@ -12,6 +12,7 @@ from ..errors import DatasetError
 from ..progress import say
 
 DEFAULT_DATASET = "builtin:helmet-drops"
+DATASET_HELP = "Dataset path, builtin:NAME or heldout:NAME (a held-out set made by `data synth --heldout NAME`)."
 FEW_DROPS = 5  # drops a velocity under which a velocity's mean is mostly sampling noise (docs/data.md)
 
 
@@ -25,6 +26,21 @@ def few_drops(meta: dict) -> str | None:
     return (f"fewer than {FEW_DROPS} drops a velocity: {', '.join(few)}; the data-driven models interpolate from each "
             "velocity's mean of drops, and with so few its error is mostly sampling noise: record "
             f"{FEW_DROPS} or more, 10 as the paper does (docs/data.md, \"How many drops\")")
+
+
+def _open(ref: str):
+    """The dataset ``ref`` names; ``heldout:NAME`` is a held-out set's simulated copy, or says how to make it."""
+    from ..evaluation import heldout
+    from .dataset import open_dataset
+
+    if ref.startswith(heldout.PREFIX):
+        name = ref[len(heldout.PREFIX):]
+        path = heldout.dataset_path(name)  # an unknown name is refused with the known ones
+        if not (path / "dataset.json").is_file():
+            raise DatasetError(f"{ref}: not simulated on this machine yet; make it with `hapticfx data synth "
+                               f"--heldout {name}` (about a minute)")
+        ref = str(path)
+    return open_dataset(ref)
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:
@@ -98,7 +114,7 @@ def record(
 
 def plot(
     object: str = typer.Argument(..., help="Object id."),
-    dataset: str = typer.Option(DEFAULT_DATASET, metavar="DATASET", help="Dataset path or builtin:NAME."),
+    dataset: str = typer.Option(DEFAULT_DATASET, metavar="DATASET", help=DATASET_HELP),
     reducer: str = typer.Option("max-min", metavar="NAME", help="Reducer whose bank and drops are drawn."),
     velocity: Optional[float] = typer.Option(None, metavar="M/S",
                                              help="Velocity (m/s) whose drops are drawn (default: middle one)."),
@@ -108,15 +124,14 @@ def plot(
 ):
     """Plot the drops at one velocity with the chosen representative, and the profiles across velocities."""
     from ..actuators.files import check_overwrite
-    from .dataset import open_dataset
     from .plot import plot_object
 
     check_overwrite(out, force=force)
-    typer.echo(str(plot_object(open_dataset(dataset), object, out, reducer=reducer, velocity=velocity)))
+    typer.echo(str(plot_object(_open(dataset), object, out, reducer=reducer, velocity=velocity)))
 
 
 def info(
-    dataset: str = typer.Argument(DEFAULT_DATASET, help="Dataset path or builtin:NAME."),
+    dataset: str = typer.Argument(DEFAULT_DATASET, help=DATASET_HELP),
     as_json: bool = typer.Option(False, "--json", help=JSON_HELP),
 ):
     """Describe a dataset: what made it, rates, sensor, objects, velocities, drops, representatives.
@@ -124,9 +139,8 @@ def info(
     The readable summary leaves out the simulator's and sensor's full parameters; --json has everything.
     """
     from ..cli.show import show
-    from .dataset import open_dataset
 
-    ds = open_dataset(dataset)
+    ds = _open(dataset)
     for obj in ds.objects:  # each bank read and checked against dataset.json: a bad one is said here
         for reducer in ds.reducers():
             ds.bank(obj, reducer)
@@ -190,7 +204,7 @@ def tables(dataset: str = typer.Argument(..., help="Dataset directory (its table
 
 
 def bench_reducers(
-    dataset: str = typer.Option(DEFAULT_DATASET, metavar="DATASET", help="Dataset path or builtin:NAME."),
+    dataset: str = typer.Option(DEFAULT_DATASET, metavar="DATASET", help=DATASET_HELP),
     repeats: int = typer.Option(30, "--repeats", metavar="COUNT",
                                 help="Timed repetitions (median and IQR are over these)."),
     number: int = typer.Option(200, metavar="COUNT", help="Calls per repetition for the single-signal time."),
@@ -200,9 +214,8 @@ def bench_reducers(
     from ..registry import get_registry
     from ..timing import table
     from ..bench.reducers import METRICS, score, time_reducers
-    from .dataset import open_dataset
 
-    ds = open_dataset(dataset)
+    ds = _open(dataset)
     reg = get_registry()
     reducers = {name: reg.create("reducer", name) for name in ("dft321", "max-min")}
     scores = score(ds, reducers, progress=say)

@@ -89,6 +89,8 @@ def _number(text: str, column: str, where: str, problems: _Problems) -> float | 
 
 
 def _read(file: Path, drops: dict, problems: _Problems) -> None:
+    if file.is_dir():
+        raise DatasetError(f"{file}: a folder; give the CSV files in it ({file / '*.csv'})")
     if not file.is_file():
         raise DatasetError(f"{file}: file not found")
     try:
