@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -110,3 +111,14 @@ def test_check_summarises_the_schedule(study_file, capsys):
     out = capsys.readouterr().out
     assert "realism (rating): 4 conditions, 24 trials + 1 practice, 25 impacts, order latin-square" in out
     assert "(correct " in out and os.linesep in out
+
+
+@pytest.mark.parametrize("pace", ["nan", "inf", "1e300", "61"])
+def test_a_bad_pace_is_refused_before_anything_is_written(study_file, tmp_path, capsys, pace):
+    out = tmp_path / "r"
+    assert _cli("study", "run", str(study_file), "--simulate", "--participants", "1", "--device", "memory",
+                "--out", str(out), "--pace", pace) == 2
+    err = capsys.readouterr().err
+    assert "--pace" in err and "Traceback" not in err and not out.exists(), err
+    if math.isfinite(float(pace)):
+        assert err == f"hapticfx: error: --pace: expected seconds between answers in [0, 60], got {float(pace):g}\n"

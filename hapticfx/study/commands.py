@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Optional
@@ -66,6 +67,9 @@ def _serve(session, *, port: int, echo) -> None:
     echo(f"{session.participant}: complete; answers in {session.log.path}")
 
 
+MAX_PACE_S = 60.0  # --pace: a simulated participant is paced to watch a demonstration, not for hours
+
+
 def run(
     study: Path = typer.Argument(..., help="Study file (YAML), e.g. studies/paper_study2.yaml."),
     participant: Optional[str] = typer.Option(None, "--participant", "-p", metavar="ID",
@@ -88,6 +92,8 @@ def run(
     """
     from .spec import load_study
 
+    if not (math.isfinite(pace) and 0.0 <= pace <= MAX_PACE_S):  # nan passes typer's min; inf would overflow sleep
+        raise StudyError(f"--pace: expected seconds between answers in [0, {MAX_PACE_S:g}], got {pace:g}")
     spec = load_study(study)
     folder = out or Path("results") / spec.name
     dev = _device(device)
