@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
 import yaml
@@ -48,3 +49,14 @@ def write_study(folder: Path, study: dict, name: str = "study.yaml") -> Path:
     path = folder / name
     path.write_text(yaml.safe_dump(study, sort_keys=False))
     return path
+
+
+def damaged(path: Path, how: str) -> str:
+    """Damage a results file as a disk or a hand edit could; returns what the error must say about it."""
+    lines = path.read_bytes().count(b"\n")
+    if how == "random bytes":
+        path.write_bytes(random.Random(7).randbytes(4096))
+        return "line 1 is not JSON ("
+    path.write_bytes(path.read_bytes() + b"[1,2]\n")
+    return f"line {lines + 1}: expected a record object with type session, answer, done, got [1, 2]"
+

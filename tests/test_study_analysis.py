@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -19,7 +20,7 @@ from hapticfx.study.analysis import FACTOR, analyse_ratings  # noqa: E402
 from hapticfx.study.schedule import build_schedule  # noqa: E402
 from hapticfx.study.simulate import SimulatedParticipant  # noqa: E402
 from hapticfx.study.spec import load_study  # noqa: E402
-from study_files import small_study, write_study  # noqa: E402
+from study_files import damaged, small_study, write_study  # noqa: E402
 
 N_PARTICIPANTS, NOISE_SD, SHIFT = 8, 10.0, 10.0
 
@@ -126,3 +127,24 @@ def test_analyze_a_simulated_run_end_to_end(tmp_path, capsys):
 def test_analyze_refuses_a_folder_without_results(tmp_path, capsys):
     assert _cli("study", "analyze", str(tmp_path)) == 2
     assert capsys.readouterr().err.strip() == f"hapticfx: error: {tmp_path}: holds no results (no <participant>.jsonl files)"
+
+
+@pytest.fixture(scope="module")
+def simulated_results(tmp_path_factory):
+    """A results folder with one simulated participant of the small study."""
+    folder = tmp_path_factory.mktemp("simulated")
+    results = folder / "results"
+    assert _cli("study", "run", str(write_study(folder, small_study())), "--simulate", "--participants", "1",
+                "--device", "memory", "--out", str(results)) == 0
+    return results
+
+
+@pytest.mark.parametrize("how", ["random bytes", "a list line"])
+def test_analyze_names_the_line_of_a_damaged_results_file(simulated_results, tmp_path, capsys, how):
+    results = shutil.copytree(simulated_results, tmp_path / "results")
+    expected = damaged(results / "P01.jsonl", how)
+    capsys.readouterr()
+    assert _cli("study", "analyze", str(results)) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"hapticfx: error: {results / 'P01.jsonl'}: {expected}") and err.count("\n") == 1, err
+    assert not (results / "analysis").exists()

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from hapticfx.cli import main
-from study_files import small_study, write_study
+from study_files import damaged, small_study, write_study
 
 
 def _cli(*args) -> int:
@@ -122,3 +122,18 @@ def test_a_bad_pace_is_refused_before_anything_is_written(study_file, tmp_path, 
     assert "--pace" in err and "Traceback" not in err and not out.exists(), err
     if math.isfinite(float(pace)):
         assert err == f"hapticfx: error: --pace: expected seconds between answers in [0, 60], got {float(pace):g}\n"
+
+
+@pytest.mark.parametrize("how", ["random bytes", "a list line"])
+def test_resuming_a_damaged_results_file_is_one_line_and_changes_nothing(study_file, tmp_path, capsys, how):
+    out = tmp_path / "results"
+    run = ("study", "run", str(study_file), "--simulate", "--participant", "P01", "--device", "memory", "--out", str(out))
+    assert _cli(*run) == 0
+    results = out / "P01.jsonl"
+    expected = damaged(results, how)
+    before = results.read_bytes()
+    capsys.readouterr()
+    assert _cli(*run) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"hapticfx: error: {results}: {expected}") and err.count("\n") == 1, err
+    assert results.read_bytes() == before

@@ -16,9 +16,10 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from ..atomic import atomic_path
-from ..errors import StudyError
+from ..errors import StudyError, preview
 
 STUDY_COPY = "study.yaml"
+RECORD_TYPES = ("session", "answer", "done")
 
 
 def now_iso() -> str:
@@ -35,15 +36,21 @@ def _fsync_dir(path: Path) -> None:
 
 
 def read_records(path: Path) -> tuple[list[dict], int]:
-    """The complete records of a results file, and how many bytes of a torn last line follow them."""
+    """The complete records of a results file (each line a JSON object of a known type), and how many bytes of a
+    torn last line follow them."""
     data = path.read_bytes()
     end = data.rfind(b"\n") + 1
     records = []
-    for n, line in enumerate(data[:end].splitlines(), 1):
+    for n, line in enumerate(data[:end].split(b"\n")[:-1], 1):
         try:
-            records.append(json.loads(line))
-        except json.JSONDecodeError as exc:
-            raise StudyError(f"line {n} is not JSON ({exc.msg}); the file was edited by hand?", source=str(path)) from None
+            record = json.loads(line)
+        except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, or nested past the parser's depth
+            reason = exc.msg if isinstance(exc, json.JSONDecodeError) else "not UTF-8" if isinstance(exc, UnicodeError) else exc
+            raise StudyError(f"line {n} is not JSON ({reason}); the file was edited by hand?", source=str(path)) from None
+        if not isinstance(record, dict) or record.get("type") not in RECORD_TYPES:
+            raise StudyError(f"line {n}: expected a record object with type {', '.join(RECORD_TYPES)}, got {preview(record)}",
+                             source=str(path))
+        records.append(record)
     return records, len(data) - end
 
 
