@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import random
 from pathlib import Path
 
@@ -51,12 +52,31 @@ def write_study(folder: Path, study: dict, name: str = "study.yaml") -> Path:
     return path
 
 
+RATING = "response.ratings.realism: expected a number in [0, 100], got "
+ANSWER_DAMAGE = {  # how: (the kind of answer changed, the change, what the error says after "line N: ")
+    "a bogus cell": ("rating", lambda r: r.update(cell="bogus"), "cell: expected {cell!r} (its slots' stimuli), got 'bogus'"),
+    "no response": ("rating", lambda r: r.pop("response"), "required key 'response' is missing"),
+    "a rating 'high'": ("rating", lambda r: r["response"]["ratings"].update(realism="high"), RATING + "'high'"),
+    "a rating of nan": ("rating", lambda r: r["response"]["ratings"].update(realism=float("nan")), RATING + "nan"),
+    "a rating of inf": ("rating", lambda r: r["response"]["ratings"].update(realism=float("inf")), RATING + "inf"),
+    "a rating of 1e9": ("rating", lambda r: r["response"]["ratings"].update(realism=1e9), RATING + "1000000000.0"),
+    "a bogus choice": ("matching", lambda r: r["response"].update(choice="Z"), "response: expected the choice of a comparison (A, B)"),
+}
+
+
 def damaged(path: Path, how: str) -> str:
     """Damage a results file as a disk or a hand edit could; returns what the error must say about it."""
-    lines = path.read_bytes().count(b"\n")
+    lines = path.read_bytes().split(b"\n")  # the last is empty
     if how == "random bytes":
         path.write_bytes(random.Random(7).randbytes(4096))
         return "line 1 is not JSON ("
-    path.write_bytes(path.read_bytes() + b"[1,2]\n")
-    return f"line {lines + 1}: expected a record object with type session, answer, done, got [1, 2]"
-
+    if how == "a list line":
+        path.write_bytes(path.read_bytes() + b"[1,2]\n")
+        return f"line {len(lines)}: expected a record object with type session, answer, done, got [1, 2]"
+    kind, change, says = ANSWER_DAMAGE[how]
+    n, record = next((n, r) for n, r in enumerate(map(json.loads, lines[:-1]), 1) if r.get("kind") == kind)
+    expected = f"line {n}: " + says.format(**record)
+    change(record)
+    lines[n - 1] = json.dumps(record).encode()
+    path.write_bytes(b"\n".join(lines))
+    return expected

@@ -20,7 +20,7 @@ from hapticfx.study.analysis import FACTOR, analyse_ratings  # noqa: E402
 from hapticfx.study.schedule import build_schedule  # noqa: E402
 from hapticfx.study.simulate import SimulatedParticipant  # noqa: E402
 from hapticfx.study.spec import load_study  # noqa: E402
-from study_files import damaged, small_study, write_study  # noqa: E402
+from study_files import ANSWER_DAMAGE, damaged, small_study, write_study  # noqa: E402
 
 N_PARTICIPANTS, NOISE_SD, SHIFT = 8, 10.0, 10.0
 
@@ -139,7 +139,7 @@ def simulated_results(tmp_path_factory):
     return results
 
 
-@pytest.mark.parametrize("how", ["random bytes", "a list line"])
+@pytest.mark.parametrize("how", ["random bytes", "a list line", *ANSWER_DAMAGE])
 def test_analyze_names_the_line_of_a_damaged_results_file(simulated_results, tmp_path, capsys, how):
     results = shutil.copytree(simulated_results, tmp_path / "results")
     expected = damaged(results / "P01.jsonl", how)
@@ -148,3 +148,11 @@ def test_analyze_names_the_line_of_a_damaged_results_file(simulated_results, tmp
     err = capsys.readouterr().err
     assert err.startswith(f"hapticfx: error: {results / 'P01.jsonl'}: {expected}") and err.count("\n") == 1, err
     assert not (results / "analysis").exists()
+
+
+def test_analyze_needs_the_folders_copy_of_the_study_file(simulated_results, tmp_path, capsys):
+    results = shutil.copytree(simulated_results, tmp_path / "results")
+    (results / "study.yaml").unlink()
+    assert _cli("study", "analyze", str(results)) == 2
+    assert capsys.readouterr().err.strip() == \
+        f"hapticfx: error: {results}: holds no study.yaml, the copy of the study file its answers are checked against"

@@ -124,7 +124,7 @@ def test_a_bad_pace_is_refused_before_anything_is_written(study_file, tmp_path, 
         assert err == f"hapticfx: error: --pace: expected seconds between answers in [0, 60], got {float(pace):g}\n"
 
 
-@pytest.mark.parametrize("how", ["random bytes", "a list line"])
+@pytest.mark.parametrize("how", ["random bytes", "a list line", "a rating of 1e9"])
 def test_resuming_a_damaged_results_file_is_one_line_and_changes_nothing(study_file, tmp_path, capsys, how):
     out = tmp_path / "results"
     run = ("study", "run", str(study_file), "--simulate", "--participant", "P01", "--device", "memory", "--out", str(out))

@@ -49,7 +49,8 @@ class Session:
         header = {"participant": participant, "study": study.name, "study_sha256": study.sha256,
                   "schedule_sha256": schedule_sha256(self.schedule), "trials": len(self.schedule),
                   "seed": study.seed, "simulated": simulated, "hapticfx_version": __version__}
-        self.log = ResultsLog.open(folder, study_text=study_text, participant=participant, header=header)
+        self.log = ResultsLog.open(folder, study_text=study_text, participant=participant, header=header,
+                                   tasks={t.name: (t.type, t.questions) for t in study.tasks})
         self.answered = set(self.log.answers())
         self.resumed = bool(self.answered)
         self.session_number = sum(1 for r in self.log.records if r.get("type") == "session")
@@ -212,7 +213,7 @@ class Session:
         clean = {}
         for q in task.questions:
             v = ratings[q.id]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not q.low <= v <= q.high:
+            if not q.holds(v):
                 raise AnswerRefused(f"{q.id}: expected a number in [{q.low:g}, {q.high:g}], got {v!r}")
             clean[q.id] = float(v)
         return {"ratings": clean}, None

@@ -64,6 +64,10 @@ class Question:
     low: float = 0.0
     high: float = 100.0
 
+    def holds(self, value) -> bool:
+        """Whether ``value`` is a rating on this scale: a number in [low, high] (nan and infinity are not)."""
+        return not isinstance(value, bool) and isinstance(value, (int, float)) and self.low <= value <= self.high
+
 
 @dataclass(frozen=True)
 class TaskOptions:
@@ -317,7 +321,14 @@ def _pairs(value, source, key, stimuli, role) -> dict[str, tuple[str, str]]:
     return out
 
 
-def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Task:
+def _task_list(value, source) -> list:
+    if not isinstance(value, list) or not value:
+        raise _fail(f"expected a non-empty list of tasks, got {preview(value)}", source, "tasks")
+    return value
+
+
+def _task_head(i: int, raw, source) -> tuple[dict, str, str, tuple[Question, ...]]:
+    """A task's mapping, type, name and questions: all that the answers to it are checked against."""
     key = f"tasks[{i}]"
     raw = _mapping(raw, source, key)
     kind = raw.get("type")
@@ -326,6 +337,33 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
     allowed = COMMON_KEYS + LIST_KEYS[kind] + tuple(f.name for f in dataclasses.fields(TaskOptions))
     _only(raw, allowed, source, key)
     name = _name(raw.get("name"), source, f"{key}.name")
+    asked = "questions" if kind == "rating" else "question"
+    if asked not in raw:
+        raise _fail(f"required key {preview(asked)} is missing", source, key)
+    if kind != "rating":
+        return raw, kind, name, (_question(raw["question"], source, f"{key}.question", default_id=name),)
+    qs = raw["questions"]
+    if not isinstance(qs, list) or not qs:
+        raise _fail(f"expected a non-empty list of questions, got {preview(qs)}", source, f"{key}.questions")
+    questions = tuple(_question(q, source, f"{key}.questions[{j}]", default_id=name if len(qs) == 1 else f"q{j + 1}")
+                      for j, q in enumerate(qs))
+    if len({q.id for q in questions}) != len(questions):
+        raise _fail("two questions have the same id", source, f"{key}.questions")
+    return raw, kind, name, questions
+
+
+def task_questions(path: str | Path) -> dict[str, tuple[str, tuple[Question, ...]]]:
+    """Each task's type and questions (task name -> (type, questions)), read from a study file without opening
+    the effects and datasets it names: what a results folder's copy of its study file says its answers are."""
+    source = str(path)
+    data = _mapping(read_yaml(Path(path)), source, "(top level)")
+    heads = [_task_head(i, raw, source) for i, raw in enumerate(_task_list(data.get("tasks"), source))]
+    return {name: (kind, questions) for _, kind, name, questions in heads}
+
+
+def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Task:
+    key = f"tasks[{i}]"
+    raw, kind, name, questions = _task_head(i, raw, source)
     if name in seen:
         raise _fail(f"another task is named {preview(name)}", source, f"{key}.name")
     seen.add(name)
@@ -340,13 +378,6 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
     match_by, roles = None, {}
     if kind == "rating":
         cells = {n: (n,) for n in _names(raw["stimuli"], source, f"{key}.stimuli", stimuli)}
-        qs = raw["questions"]
-        if not isinstance(qs, list) or not qs:
-            raise _fail(f"expected a non-empty list of questions, got {preview(qs)}", source, f"{key}.questions")
-        questions = tuple(_question(q, source, f"{key}.questions[{j}]", default_id=name if len(qs) == 1 else f"q{j + 1}")
-                          for j, q in enumerate(qs))
-        if len({q.id for q in questions}) != len(questions):
-            raise _fail("two questions have the same id", source, f"{key}.questions")
     elif kind == "matching":
         targets = _names(raw["targets"], source, f"{key}.targets", stimuli)
         comparisons = _names(raw["comparisons"], source, f"{key}.comparisons", stimuli)
@@ -362,7 +393,6 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
                 raise _fail(f"target {preview(t)} must match exactly one comparison by {preview(match_by)}, matches {hits or 'none'}",
                             source, f"{key}.targets")
         cells = {t: (t, *comparisons) for t in targets}
-        questions = (_question(raw["question"], source, f"{key}.question", default_id=name),)
     else:
         cells = {}
         for role in ("test", "upper", "lower"):
@@ -373,7 +403,6 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
                     raise _fail(f"pair {preview(label)} is listed twice", source, key)
                 roles[label] = role
             cells.update(pairs)
-        questions = (_question(raw["question"], source, f"{key}.question", default_id=name),)
     used = {s for cell in cells.values() for s in cell}
     for s in sorted(used):
         if stimuli[s].recorded:
@@ -428,11 +457,9 @@ def study_from_mapping(data: Any, *, source: str, base_dir: Path, sha256: str = 
                  for n, a in _mapping(data["actuators"], source, "actuators").items()}
     stimuli = {n: _stimulus(n, raw, source=source, base_dir=base_dir, actuators=actuators)
                for n, raw in _mapping(data["stimuli"], source, "stimuli").items()}
-    raw_tasks = data["tasks"]
-    if not isinstance(raw_tasks, list) or not raw_tasks:
-        raise _fail(f"expected a non-empty list of tasks, got {preview(raw_tasks)}", source, "tasks")
     seen: set = set()
-    tasks = tuple(_task(i, t, source=source, stimuli=stimuli, seen=seen) for i, t in enumerate(raw_tasks))
+    tasks = tuple(_task(i, t, source=source, stimuli=stimuli, seen=seen)
+                  for i, t in enumerate(_task_list(data["tasks"], source)))
     simulate = _simulation(data.get("simulate", {}), source)
     return Study(name, source, sha256, seed, task_order, actuators, stimuli, tasks, simulate, description, base_dir)
 
