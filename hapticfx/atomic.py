@@ -57,6 +57,14 @@ def temporary_beside(path: Path, *, folder: bool = False) -> Path:
         return Path(tmp)
 
 
+def check_writable(folder: str | os.PathLike) -> None:
+    """Raise :class:`OSError` (the system's reason) unless a file can be made in ``folder``, or, where it does
+    not exist yet, in the nearest folder above it, where it would be made. The probe file is gone at once."""
+    folder = Path(folder)
+    existing = next(p for p in (folder, *folder.parents) if p.exists())
+    tempfile.TemporaryFile(dir=existing).close()
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike, *, make_parents: bool = False):
     """Yield a temporary path beside ``path``; move it into place only if the block succeeds."""

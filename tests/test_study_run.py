@@ -137,3 +137,13 @@ def test_resuming_a_damaged_results_file_is_one_line_and_changes_nothing(study_f
     err = capsys.readouterr().err
     assert err.startswith(f"hapticfx: error: {results}: {expected}") and err.count("\n") == 1, err
     assert results.read_bytes() == before
+
+
+def test_a_wav_output_that_cannot_be_written_is_refused_before_the_session_starts(study_file, tmp_path, capsys):
+    (tmp_path / "a-file").write_text("not a folder")
+    wav, out = tmp_path / "a-file" / "x.wav", tmp_path / "r"
+    assert _cli("study", "run", str(study_file), "--simulate", "--participant", "P01", "--device", f"wav:{wav}",
+                "--out", str(out)) == 2
+    assert capsys.readouterr().err == \
+        f"hapticfx: error: {wav}: cannot write in {wav.parent} (Not a directory)\n"
+    assert not out.exists()

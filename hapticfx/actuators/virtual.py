@@ -13,7 +13,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Literal
 
-from ..atomic import user_path
+from ..atomic import check_writable, user_path
 from ..errors import DeviceError, HapticfxError
 from ..interfaces import Actuator, ActuatorSpec
 from ..params import BuildContext, doc
@@ -120,6 +120,10 @@ class _FileActuator(Actuator):
             check_overwrite(self.path, force=self.params.overwrite, option="actuator.overwrite: true")
         except HapticfxError as exc:
             raise DeviceError(str(exc)) from None
+        try:  # the file is made at the first impact: a folder it cannot be made in is said now, not then
+            check_writable(self.path.parent)
+        except OSError as exc:
+            raise DeviceError(f"{self.path}: cannot write in {self.path.parent} ({exc.strerror})") from None
 
     def play(self, signal: Signal, at_s: float | None = None) -> None:
         """Place ``signal`` at ``at_s`` seconds into the file (None: right after the last impact)."""
