@@ -6,6 +6,7 @@ import json
 import math
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -146,4 +147,17 @@ def test_a_wav_output_that_cannot_be_written_is_refused_before_the_session_start
                 "--out", str(out)) == 2
     assert capsys.readouterr().err == \
         f"hapticfx: error: {wav}: cannot write in {wav.parent} (Not a directory)\n"
+    assert not out.exists()
+
+
+def test_a_port_in_use_is_refused_naming_it_before_anything_is_written(study_file, tmp_path, capsys):
+    out = tmp_path / "r"
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert _cli("study", "run", str(study_file), "--participant", "P01", "--device", "memory", "--out", str(out),
+                    "--port", str(port)) == 2
+    assert capsys.readouterr().err == (f"hapticfx: error: cannot serve the participant's page on 127.0.0.1:{port}: "
+                                       "Address already in use; choose another with --port (0: any free port)\n")
     assert not out.exists()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Optional
 
@@ -22,36 +23,39 @@ def run_one(study_path: Path, participant: str, out: Path, *, device, port: int,
     from ..pipeline import stand_in
     from .player import StimulusPlayer
     from .schedule import build_schedule
+    from .server import StudyServer
     from .session import Session
     from .spec import load_study
 
     study = load_study(study_path)
     schedule = build_schedule(study, participant)
     realtime = stand_in(device) is None
-    with StimulusPlayer(study, schedule, device=device, realtime=realtime) as player:
+    with ExitStack() as stack:
+        server = None
+        if not simulate:  # the page's port first: one in use is refused before anything is written
+            server = StudyServer(None, port=port)
+            stack.callback(server.stop)
+        player = stack.enter_context(StimulusPlayer(study, schedule, device=device, realtime=realtime))
         session = Session(study, participant, out, player, study_text=Path(study_path).read_bytes(),
                           simulated=simulate, enforce_breaks=not simulate)
-        try:
-            before = len(session.answered)
-            if session.done:
-                echo(f"{participant}: already complete ({len(schedule)} trials in {session.log.path})")
-            elif simulate:
-                from .simulate import run_simulated
+        stack.callback(session.close)
+        before = len(session.answered)
+        if session.done:
+            echo(f"{participant}: already complete ({len(schedule)} trials in {session.log.path})")
+        elif simulate:
+            from .simulate import run_simulated
 
-                run_simulated(session, pace_s=pace_s)
-                echo(f"{participant}: {len(session.answered) - before} answers simulated "
-                     f"({len(session.answered)}/{len(schedule)} in {session.log.path})")
-            else:
-                _serve(session, port=port, echo=echo)
-            return len(session.answered) - before
-        finally:
-            session.close()
+            run_simulated(session, pace_s=pace_s)
+            echo(f"{participant}: {len(session.answered) - before} answers simulated "
+                 f"({len(session.answered)}/{len(schedule)} in {session.log.path})")
+        else:
+            _serve(session, server, echo=echo)
+        return len(session.answered) - before
 
 
-def _serve(session, *, port: int, echo) -> None:
-    from .server import StudyServer
-
-    with StudyServer(session, port=port) as server:
+def _serve(session, server, *, echo) -> None:
+    server.session = session
+    with server:
         where = f"resuming at trial {session.position + 1}" if session.answered else "starting"
         echo(f"{session.participant}: {where} of {len(session.schedule)}; the participant's page is {server.url}")
         seen, errors = len(session.answered), 0

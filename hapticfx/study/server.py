@@ -65,9 +65,13 @@ def _asset(name: str) -> bytes:
 
 
 class StudyServer:
-    """Serves one session's page on ``host:port`` (port 0: any free one) from a background thread."""
+    """Serves one session's page on ``host:port`` (port 0: any free one) from a background thread.
 
-    def __init__(self, session: Session, *, host: str = "127.0.0.1", port: int = 0):
+    The port is bound on construction, so that a port in use is refused before a session
+    opens its results; ``session`` may then be given later, before :meth:`start`.
+    """
+
+    def __init__(self, session: Session | None, *, host: str = "127.0.0.1", port: int = 0):
         self.session = session
         self.token = secrets.token_urlsafe(16)
         self.pages = {path: (_asset(name).replace(b"{{TOKEN}}", self.token.encode()), kind)
@@ -75,7 +79,12 @@ class StudyServer:
         if not loopback_name(host):
             raise HapticfxError(f"the study page is served on the loopback address only, not {host!r}")
         self.errors: list[str] = []
-        self.httpd = _Server((host, port), self._handler(), self.errors)
+        try:
+            self.httpd = _Server((host, port), self._handler(), self.errors)
+        except (OSError, OverflowError) as exc:  # OverflowError: a port outside 0-65535
+            raise HapticfxError(f"cannot serve the participant's page on {host}:{port}: "
+                                f"{getattr(exc, 'strerror', None) or exc}; choose another with --port "
+                                "(0: any free port)") from None
         self.httpd.daemon_threads = True
         self._thread: threading.Thread | None = None
 
@@ -170,10 +179,12 @@ class StudyServer:
         return self
 
     def stop(self) -> None:
-        self.httpd.shutdown()
-        self.httpd.server_close()
-        if self._thread is not None:
+        """Stop serving and free the port; stopping a server never started, or stopped, only frees the port."""
+        if self._thread is not None:  # shutdown() waits for serve_forever(), forever if it never ran
+            self.httpd.shutdown()
             self._thread.join(5)
+            self._thread = None
+        self.httpd.server_close()
 
     def __enter__(self):
         return self.start()
