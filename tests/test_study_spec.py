@@ -58,6 +58,16 @@ CASES = [
     (lambda s: s["tasks"][2].update(lower=[["dd-brick", "real-brick"]]), "tasks[2]: pair 'dd-brick|real-brick' is listed twice"),
     (lambda s: s.update(simulate={"noise_sd": -1}), "simulate.noise_sd: must be >= 0.0, got -1"),
     (lambda s: s.update(simulate={"effects": [{"shift": "big"}]}), "simulate.effects[0].shift: expected a number of scale points"),
+    (lambda s: s.update(simulate={"effects": [{"shift": 5, "question": "realsim"}]}),
+     "simulate.effects[0].question: unknown question 'realsim'; the study asks realism, match, similarity"),
+    (lambda s: s.update(simulate={"effects": [{"shift": 5, "task": "match", "question": "realism"}]}),
+     "simulate.effects[0].question: unknown question 'realism'; task match asks match"),
+    (lambda s: s.update(simulate={"effects": [{"shift": 5, "task": ["realism"]}]}),
+     "simulate.effects[0].task: unknown task ['realism']; the study's tasks: realism, match, similarity"),
+    (lambda s: s.update(simulate={"effects": [{"shift": 5, "when": {"colour": "red"}}]}),
+     "simulate.effects[0].when: no stimulus has a factor 'colour'; the stimuli's factors: method, object"),
+    (lambda s: s.update(simulate={"effects": [{"shift": 5, "when": {"method": "physics", "object": "wood"}}]}),
+     "simulate.effects[0].when.object: no stimulus has object 'wood'; its levels: brick, steel"),
 ]
 
 

@@ -414,8 +414,12 @@ def _task(i: int, raw, *, source, stimuli: dict[str, Stimulus], seen: set) -> Ta
     return Task(name, kind, velocities, options, cells, questions, match_by, roles)
 
 
-def _simulation(raw, source) -> Simulation:
+def _simulation(raw, source, tasks: tuple[Task, ...], stimuli: dict[str, Stimulus]) -> Simulation:
     raw = dict(_mapping(raw, source, "simulate", empty_ok=True))
+    levels: dict[str, dict[str, None]] = {}  # factor -> its levels (in order), over the study's stimuli
+    for stimulus in stimuli.values():
+        for f, level in stimulus.factors.items():
+            levels.setdefault(f, {})[level] = None
     effects = raw.pop("effects", [])
     if not isinstance(effects, list):
         raise _fail(f"expected a list of effects, got {preview(effects)}", source, "simulate.effects")
@@ -427,9 +431,23 @@ def _simulation(raw, source) -> Simulation:
         shift = e.get("shift")
         if isinstance(shift, bool) or not isinstance(shift, (int, float)) or not math.isfinite(shift):
             raise _fail(f"expected a number of scale points, got {preview(shift)}", source, f"{k}.shift")
-        when = _mapping(e.get("when", {}), source, f"{k}.when", empty_ok=True)
-        parsed.append(SimulatedEffect(float(shift), {str(f): str(v) for f, v in when.items()},
-                                      e.get("task"), e.get("question")))
+        task, question = e.get("task"), e.get("question")
+        if task is not None and task not in [t.name for t in tasks]:  # a list: a task given as a list is unhashable
+            raise _fail(f"unknown task {preview(task)}; the study's tasks: {', '.join(t.name for t in tasks)}", source,
+                        f"{k}.task")
+        asked = list(dict.fromkeys(q.id for t in tasks if task in (None, t.name) for q in t.questions))
+        if question is not None and question not in asked:
+            raise _fail(f"unknown question {preview(question)}; {f'task {task}' if task else 'the study'} asks "
+                        f"{', '.join(asked)}", source, f"{k}.question")
+        when = {str(f): str(v) for f, v in _mapping(e.get("when", {}), source, f"{k}.when", empty_ok=True).items()}
+        for f, level in when.items():  # an effect no stimulus can have would silently shift nothing
+            if f not in levels:
+                raise _fail(f"no stimulus has a factor {preview(f)}; the stimuli's factors: {', '.join(levels) or 'none'}",
+                            source, f"{k}.when")
+            if level not in levels[f]:
+                raise _fail(f"no stimulus has {f} {preview(level)}; its levels: {', '.join(levels[f])}", source,
+                            f"{k}.when.{f}")
+        parsed.append(SimulatedEffect(float(shift), when, task, question))
     sim = parse_params(Simulation, raw, source=source, key="simulate")
     return dataclasses.replace(sim, effects=tuple(parsed))
 
@@ -460,7 +478,7 @@ def study_from_mapping(data: Any, *, source: str, base_dir: Path, sha256: str = 
     seen: set = set()
     tasks = tuple(_task(i, t, source=source, stimuli=stimuli, seen=seen)
                   for i, t in enumerate(_task_list(data["tasks"], source)))
-    simulate = _simulation(data.get("simulate", {}), source)
+    simulate = _simulation(data.get("simulate", {}), source, tasks, stimuli)
     return Study(name, source, sha256, seed, task_order, actuators, stimuli, tasks, simulate, description, base_dir)
 
 
