@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -65,6 +66,37 @@ def test_export_a_wav_file(tmp_path, capsys):
     peak = max(p["amplitude"] for p in doc["signals"]["continuous"]["envelopes"]["amplitude"])
     assert 0.35 < peak <= 0.5
 
+
+
+def _wav_bytes(fmt: bytes, payload: bytes) -> bytes:
+    body = b"WAVE" + b"fmt " + struct.pack("<I", len(fmt)) + fmt + b"data" + struct.pack("<I", len(payload)) + payload
+    return b"RIFF" + struct.pack("<I", len(body)) + body
+
+
+def _fmt(tag=1, channels=1, rate=48000, bits=16) -> bytes:
+    return struct.pack("<HHIIHH", tag, channels, rate, rate * channels * bits // 8, channels * bits // 8, bits)
+
+
+@pytest.mark.parametrize("damage, said", [
+    (lambda good: good[:30000], "truncated: the 'data' chunk needs a file of 144074 bytes, this one has 30000"),
+    (lambda good: _wav_bytes(_fmt(), b"\x01\x02\x03"), "data: 3 bytes, expected a whole number of 2-byte frames"),
+    (lambda good: _wav_bytes(_fmt(channels=2), b"\x01\x02" * 101), "data: 202 bytes, expected a whole number of 4-byte"),
+    (lambda good: _wav_bytes(_fmt(channels=0), b"\x01\x02" * 100), "fmt: channels is 0, expected at least 1"),
+    (lambda good: _wav_bytes(_fmt()[:12], b"\x01\x02" * 100), "fmt: a chunk of 12 bytes, expected at least 16"),
+    (lambda good: _wav_bytes(_fmt(rate=0), b"\x01\x02" * 100), "fmt: sample rate is 0, expected at least 1"),
+    (lambda good: _wav_bytes(_fmt(), b""), "data: no samples, expected at least one frame"),
+    (lambda good: _wav_bytes(_fmt(tag=3, bits=32), np.full(100, np.nan, "<f4").tobytes()),
+     "data: 100 sample(s) NaN or infinite, expected finite"),
+])
+def test_a_damaged_wav_file_is_one_line_naming_it_and_what_was_wrong(tmp_path, capsys, damage, said):
+    good = tmp_path / "good.wav"
+    write_wav(good, 0.5 * np.sin(np.arange(48000) / 10), 48000)  # 24-bit: 144000 bytes of samples
+    bad = tmp_path / "bad.wav"
+    bad.write_bytes(damage(good.read_bytes()))
+    code, _, err = hfx(capsys, "export", bad, "--format", "ahap", "--out", tmp_path / "x.ahap")
+    assert code == 2 and err.startswith(f"hapticfx: error: {bad}: ") and said in err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x.ahap").exists()
 
 @pytest.mark.parametrize("edit, where, rule", [
     (lambda env: env["amplitude"][1].update(amplitude=1.3), "amplitude[1].amplitude", "amplitude within 0.0-1.0"),

@@ -202,31 +202,55 @@ def write_wav(path: Path, samples: np.ndarray, rate_hz: float, *, fmt: str = DEF
 
 
 def read_wav(path: Path) -> tuple[int, np.ndarray]:
-    """``(rate_hz, samples)`` of a PCM16, PCM24 or float32 WAV file, samples ``(channels, N)`` in [-1, 1]."""
+    """``(rate_hz, samples)`` of a PCM16, PCM24 or float32 WAV file, samples ``(channels, N)`` in [-1, 1].
+
+    A damaged file (truncated, a header that does not fit its data, no samples, NaN) is a
+    :class:`HapticfxError` naming the file and what was wrong.
+    """
     data = Path(path).read_bytes()
-    if data[:4] != b"RIFF" or data[8:12] != b"WAVE":
-        raise HapticfxError(f"{path}: not a WAV file")
+
+    def bad(message: str, key: str | None = None) -> HapticfxError:
+        return HapticfxError(message, source=str(path), key=key)
+
+    if len(data) < 12 or data[:4] != b"RIFF" or data[8:12] != b"WAVE":
+        raise bad("not a WAV file")
     pos, fmt, payload = 12, None, None
-    while pos + 8 <= len(data):
+    while pos + 8 <= len(data) and (fmt is None or payload is None):
         cid, size = data[pos:pos + 4], struct.unpack("<I", data[pos + 4:pos + 8])[0]
+        if pos + 8 + size > len(data):
+            raise bad(f"truncated: the {cid.decode('latin-1').strip()!r} chunk needs a file of {pos + 8 + size} "
+                      f"bytes, this one has {len(data)}")
         body = data[pos + 8:pos + 8 + size]
         if cid == b"fmt ":
+            if size < 16:
+                raise bad(f"a chunk of {size} bytes, expected at least 16", "fmt")
             fmt = struct.unpack("<HHIIHH", body[:16])
         elif cid == b"data":
             payload = body
         pos += 8 + size + (size & 1)
     if fmt is None or payload is None:
-        raise HapticfxError(f"{path}: WAV file without fmt or data chunk")
+        raise bad("WAV file without fmt or data chunk")
     tag, channels, rate, _, _, bits = fmt
-    if (tag, bits) == (3, 32):
+    for name, value in (("channels", channels), ("sample rate", rate)):
+        if value == 0:
+            raise bad(f"{name} is 0, expected at least 1", "fmt")
+    if (tag, bits) not in {(3, 32), (1, 16), (1, 24)}:
+        raise bad(f"unsupported WAV format (tag {tag}, {bits} bits)")
+    frame = channels * bits // 8
+    if not payload:
+        raise bad("no samples, expected at least one frame", "data")
+    if len(payload) % frame:
+        raise bad(f"{len(payload)} bytes, expected a whole number of {frame}-byte frames "
+                  f"({channels} channel(s) of {bits} bits)", "data")
+    if tag == 3:
         x = np.frombuffer(payload, "<f4").astype(np.float64)
-    elif (tag, bits) == (1, 16):
+        if not np.all(np.isfinite(x)):
+            raise bad(f"{np.count_nonzero(~np.isfinite(x))} sample(s) NaN or infinite, expected finite", "data")
+    elif bits == 16:
         x = np.frombuffer(payload, "<i2") / 32767.0
-    elif (tag, bits) == (1, 24):
+    else:
         b = np.frombuffer(payload, np.uint8).reshape(-1, 3).astype(np.int32)
         x = ((b[:, 0] | (b[:, 1] << 8) | (b[:, 2] << 16)) << 8 >> 8) / 8388607.0
-    else:
-        raise HapticfxError(f"{path}: unsupported WAV format (tag {tag}, {bits} bits)")
     return rate, x.reshape(-1, channels).T
 
 
