@@ -54,6 +54,17 @@ def test_export_a_folder_over_a_velocity_range(tmp_path, capsys):
     assert "[5/5]" in text
 
 
+
+@pytest.mark.parametrize("velocities, said", [
+    ("1:inf:1", "asks for inf files; at most 1000"), ("0:1e308:1e-308", "asks for inf files"),
+    ("3,abc", "expected LO:HI:STEP"), ("5:1:1", "expected LO:HI:STEP"), ("1:2:nan", "expected LO:HI:STEP"),
+    (",", "of 1 to 1000 velocities"), ("3,nan", "velocity must be finite"), ("-1:1:1", "velocity must be >= 0.0"),
+])
+def test_a_bad_velocity_range_is_refused_before_the_folder_is_made(tmp_path, capsys, velocities, said):
+    code, _, err = hfx(capsys, "export", BRICK, "--format", "ahap", "--out", tmp_path / "set", "--velocities", velocities)
+    assert code == 2 and err.startswith(f"hapticfx: error: --velocities {velocities!r}") and said in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "set").exists()
+
 def test_export_a_wav_file(tmp_path, capsys):
     t = np.arange(9600) / 48000
     wav = tmp_path / "knock.wav"

@@ -15,19 +15,29 @@ DEVICE_HELP = ("Actuator configuration that maps Hz to the file's 0-1 frequency 
 
 
 def _velocities(text: str) -> list[float]:
-    """``LO:HI:STEP`` or a comma list of velocities (m/s)."""
+    """``LO:HI:STEP`` or a comma list of velocities (m/s): at least one, at most 1000, each a valid velocity."""
+    from ..signal import valid_velocity
+
+    usage = f"--velocities {text!r}: expected LO:HI:STEP (HI >= LO, STEP > 0) or a comma list"
     try:
         if ":" in text:
             lo, hi, step = (float(p) for p in text.split(":"))
-            if step <= 0 or hi < lo:
+            if not (step > 0 and hi >= lo):  # false for NaN too
                 raise ValueError
-            count = int(round((hi - lo) / step)) + 1
-            if count > 1000:
-                raise HapticfxError(f"--velocities {text!r} asks for {count} files; at most 1000")
-            return [round(lo + i * step, 6) for i in range(count)]
-        return [float(p) for p in text.split(",") if p.strip()]
+            files = (hi - lo) / step + 1  # infinite for an infinite HI
+            if not files < 1000.5:
+                raise HapticfxError(f"--velocities {text!r} asks for {files:.4g} files; at most 1000")
+            found = [round(lo + i * step, 6) for i in range(int(round(files)))]
+        else:
+            found = [float(p) for p in text.split(",") if p.strip()]
     except ValueError:
-        raise HapticfxError(f"--velocities {text!r}: expected LO:HI:STEP (HI >= LO, STEP > 0) or a comma list") from None
+        raise HapticfxError(usage) from None
+    if not 1 <= len(found) <= 1000:
+        raise HapticfxError(f"{usage}, of 1 to 1000 velocities")
+    try:
+        return [valid_velocity(v) for v in found]
+    except HapticfxError as exc:
+        raise HapticfxError(f"--velocities {text!r}: {exc}") from None
 
 
 def _wav_signal(path: Path):
@@ -91,16 +101,18 @@ def export(
     from ..pipeline import Pipeline
     from ..cli.commands import _warn
 
+    if velocities is not None and velocity is not None:
+        raise HapticfxError("give --velocity or --velocities, not both")
+    speeds = None if velocities is None else _velocities(velocities)  # all of it checked before anything is made
     pipeline = Pipeline.from_effect(source, device="memory")
-    if velocities is not None:
-        if velocity is not None:
-            raise HapticfxError("give --velocity or --velocities, not both")
-        out.mkdir(parents=True, exist_ok=True)
-        targets = [(v, out / f"{pipeline.effect.name}-{v:.2f}mps{suffix}") for v in _velocities(velocities)]
+    if speeds is not None:
+        targets = [(v, out / f"{pipeline.effect.name}-{v:.2f}mps{suffix}") for v in speeds]
     else:
         targets = [(velocity, out)]
     for path, _ in ((p, v) for v, p in targets):
         _refuse_existing(path, force)
+    if speeds is not None:
+        out.mkdir(parents=True, exist_ok=True)
     for i, (v, path) in enumerate(targets):
         delivery = pipeline.render(velocity=v, object=object)
         _warn(delivery)
