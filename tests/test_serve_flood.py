@@ -217,6 +217,29 @@ def test_serve_errors_are_one_line_and_exit_2(tmp_path):
     assert "Traceback" not in busy.stderr
 
 
+
+@pytest.mark.parametrize("args, said", [
+    (["--duration", "1", "--stats-every", "nan"], "Invalid value for '--stats-every': nan is not a finite number"),
+    (["--duration", "nan"], "Invalid value for '--duration': nan is not a finite number"),
+    (["--duration", "inf"], "Invalid value for '--duration': inf is not a finite number"),
+    (["--duration", "0"], "Invalid value for '--duration': 0.0 is not in the range"),
+])
+def test_serve_refuses_a_duration_or_stats_period_that_is_not_a_finite_positive_number(tmp_path, args, said):
+    (tmp_path / "s.yaml").write_text(SCENE.format(wav=tmp_path / "o.wav", rate=0, burst=1))
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "serve", str(tmp_path / "s.yaml"), "--device", "memory",
+                        "--port", "0", *args], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2 and said in r.stderr and "listening on" not in r.stdout, (r.stdout, r.stderr)
+
+
+def test_serve_checks_at_start_that_its_file_output_can_be_made(tmp_path):
+    (tmp_path / "a-file").write_text("not a folder")
+    wav = tmp_path / "a-file" / "o.wav"
+    (tmp_path / "s.yaml").write_text(SCENE.format(wav=tmp_path / "o.wav", rate=0, burst=1))
+    r = subprocess.run([sys.executable, "-m", "hapticfx", "serve", str(tmp_path / "s.yaml"), "--device", f"wav:{wav}",
+                        "--port", "0", "--duration", "1"], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2 and "listening on" not in r.stdout, (r.stdout, r.stderr)
+    assert r.stderr == f"hapticfx: error: {wav}: cannot write in {wav.parent} (Not a directory)\n"
+
 def test_bench_serve_runs_and_reports_median_and_p99():
     out = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "serve", "--impacts", "10", "--interval-ms", "0"],
                          capture_output=True, text=True, timeout=120)

@@ -105,6 +105,7 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
 def register_commands(app, bench):
     import typer
 
+    from ..cli.options import finite
     from ..progress import say
 
     @app.command("serve")
@@ -117,9 +118,9 @@ def register_commands(app, bench):
         device: str = typer.Option(None, metavar="DEVICE",
                                    help="Replace every actuator: 'memory', 'wav:PATH' or 'csv:PATH' (one file per "
                                         "output, each impact at its time)."),
-        stats_every: float = typer.Option(0.0, metavar="SECONDS", min=0.0,
+        stats_every: float = typer.Option(0.0, metavar="SECONDS", min=0.0, callback=finite,
                                           help="Print the counters as JSON every this many seconds (0: only at exit)."),
-        duration: float = typer.Option(None, metavar="SECONDS", min=0.0,
+        duration: float = typer.Option(None, metavar="SECONDS", min=0.001, callback=finite,
                                        help="Stop after this many seconds (default: until Ctrl-C or SIGTERM)."),
         allow_remote: bool = typer.Option(False, "--allow-remote", help="Listen on an address other machines can "
                                           "reach (--host 0.0.0.0, or the scene's host); refused without this flag."),
