@@ -149,6 +149,25 @@ def test_a_bench_option_out_of_its_list_is_one_error_line_before_any_work(args, 
     assert r.returncode == 2 and r.stderr.strip() == line and r.stdout == ""
 
 
+@pytest.mark.parametrize("args", [
+    ["bench", "isolation", "--interval-ms", "nan", "-n", "4", "--repeats", "1"],
+    ["bench", "serve", "--interval-ms", "nan", "--impacts", "10"],
+    ["bench", "fuzz", "effect", "--inputs", "1", "--time-limit", "nan"],
+    ["bench", "flood", "scenes/earthquake_room.yaml", "--device", "memory", "--seconds", "nan"],
+    ["bench", "flood", "scenes/earthquake_room.yaml", "--device", "memory", "--rate", "inf"],
+    ["bench", "texture", "--fill", "nan"],
+    ["export", "effects/falling_brick.yaml", "-f", "ahap", "-o", "x.ahap", "--tolerance", "nan"],
+])
+def test_a_number_option_with_a_range_refuses_nan_and_infinity(tmp_path, args):
+    option, value = next((a, b) for a, b in zip(args, args[1:]) if b in ("nan", "inf"))
+    args = [str(REPO / a) if a.endswith(".yaml") else a for a in args]
+    r = subprocess.run([sys.executable, "-m", "hapticfx", *args], capture_output=True, text=True, cwd=tmp_path,
+                       timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert f"Invalid value for '{option}': {value} is not a finite number." in r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_version_names_hapticfx_and_its_plugins():
     r = hfx("--version")
     assert r.returncode == 0 and r.stdout.startswith("hapticfx 0.1.0") and "hapticfx-soundcard" in r.stdout

@@ -248,6 +248,17 @@ def test_bench_serve_runs_and_reports_median_and_p99():
     assert '"accepted": 20' in out.stderr  # 10 warm-up + 10 timed, none dropped
 
 
+
+def test_bench_flood_that_cannot_start_serve_says_why_in_one_line(tmp_path):
+    (tmp_path / "s.yaml").write_text(SCENE.format(wav=tmp_path / "o.wav", rate=0, burst=1))
+    for args, said in (([str(tmp_path / "nope.yaml")], f"{tmp_path / 'nope.yaml'}: file not found"),
+                       ([str(tmp_path / "s.yaml"), "--device", f"wav:{tmp_path}/absent/o.wav", "--seconds", "1"],
+                        f"directory {tmp_path}/absent does not exist")):
+        r = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "flood", *args], capture_output=True, text=True,
+                           timeout=60)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        assert r.stderr.startswith("hapticfx: error: serve did not start: ") and said in r.stderr
+
 def test_serve_that_cannot_write_its_file_output_exits_2(tmp_path):
     """Files capped at 4 kB (RLIMIT_FSIZE: the OS refuses the write, as a full disk does)."""
     scene = tmp_path / "scene.yaml"

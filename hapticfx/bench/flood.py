@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import HapticfxError
 from ..osc import encode_impact
 
 
@@ -47,7 +48,10 @@ def run(scene: Path, *, seconds: float, rate: float, device: str | None, echo) -
     found = re.search(r"listening on ([\d.]+):(\d+) .*: (.*)\)$", first.strip())
     if not found:
         proc.kill()
-        raise RuntimeError(f"serve did not start: {first.strip() or ''.join(stderr_lines[-5:])}")
+        proc.wait()
+        reader.join(timeout=5)
+        said = [line.strip() for line in (*stderr_lines, first) if line.strip()]
+        raise HapticfxError(f"serve did not start: {said[-1].removeprefix('hapticfx: error: ') if said else 'no output'}")
     addr = (found.group(1), int(found.group(2)))
     objects = [o.strip() for o in found.group(3).split(",")]
     time.sleep(1.0)  # settled

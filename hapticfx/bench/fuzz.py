@@ -7,6 +7,7 @@ from typing import Optional
 
 import typer
 
+from ..cli.options import finite
 from ..errors import HapticfxError
 from ..progress import Progress
 from ..timing import table
@@ -22,7 +23,7 @@ def fuzz(
                                 "key of a valid YAML file."),
     inputs: int = typer.Option(100_000, "--inputs", metavar="COUNT", min=1, help="Mutated inputs per gate."),
     seed: int = typer.Option(0, "--seed", metavar="SEED", help="The same seed gives the same inputs."),
-    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", min=0.01,
+    time_limit: float = typer.Option(1.0, "--time-limit", metavar="SECONDS", min=0.01, callback=finite,
                                      help="Seconds one input may take (else a hang)."),
     overrides: int = typer.Option(10_000, "--overrides", metavar="COUNT", min=1,
                                   help="limits gate: random effect overrides."),

@@ -8,6 +8,7 @@ from typing import List, Optional
 
 import typer
 
+from ..cli.options import finite
 from ..progress import say
 
 
@@ -16,7 +17,7 @@ def texture(
                                          help="Datasets with their drops (e.g. builtin:helmet-drops, "
                                               "heldout:heldout-even-height); each gets its own table."),
     reducer: str = typer.Option("max-min", "--reducer", metavar="NAME", help="Which bank of each dataset."),
-    fills: List[float] = typer.Option([], "--fill", metavar="G", min=0.0, max=1.0,
+    fills: List[float] = typer.Option([], "--fill", metavar="G", min=0.0, max=1.0, callback=finite,
                                       help="Also score each share with a spectral fill on top, as ensemble-warp "
                                            "fills: every bin above 100 Hz raised to G times linear's magnitude "
                                            "where lower, in phase, moved to where linear's fine detail is (repeat "

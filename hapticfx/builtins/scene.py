@@ -152,7 +152,8 @@ def register_commands(app, bench):
     @bench.command("serve")
     def bench_serve_cmd(
         impacts: int = typer.Option(300, metavar="COUNT", min=10, help="Impacts per row."),
-        interval_ms: float = typer.Option(5.0, metavar="MS", min=0.0, help="Pause after each impact is played (ms)."),
+        interval_ms: float = typer.Option(5.0, metavar="MS", min=0.0, callback=finite,
+                                          help="Pause after each impact is played (ms)."),
         scene: Path = typer.Option(None, metavar="SCENE",
                                    help="Scene to serve (default: a 4-object kinetic-energy scene)."),
     ):
@@ -165,8 +166,8 @@ def register_commands(app, bench):
     @bench.command("flood")
     def bench_flood_cmd(
         scene: Path = typer.Argument(Path("scenes/earthquake_room.yaml"), help="Scene to serve."),
-        seconds: float = typer.Option(60.0, metavar="SECONDS", min=1.0, help="How long to flood."),
-        rate: float = typer.Option(3500.0, metavar="PER_SECOND", min=1.0, help="Impacts sent per second."),
+        seconds: float = typer.Option(60.0, metavar="SECONDS", min=1.0, callback=finite, help="How long to flood."),
+        rate: float = typer.Option(3500.0, metavar="PER_SECOND", min=1.0, callback=finite, help="Impacts sent per second."),
         device: str = typer.Option(None, metavar="DEVICE",
                                    help="Replace every actuator ('memory', 'wav:PATH'); default: the scene's own."),
     ):

@@ -8,6 +8,7 @@ from typing import Optional
 
 import typer
 
+from ..cli.options import finite
 from ..errors import HapticfxError
 
 DEVICE_HELP = ("Actuator configuration that maps Hz to the file's 0-1 frequency and AHAP sharpness: quest (55-200 Hz, "
@@ -68,7 +69,7 @@ def export(
     object: Optional[str] = typer.Option(None, "--object", metavar="OBJECT",
                                          help="Object id (default: the effect's object)."),
     device: str = typer.Option("quest", "--device", metavar="DEVICE", help=DEVICE_HELP),
-    tolerance: float = typer.Option(0.01, "--tolerance", metavar="FRACTION", min=1e-4, max=0.5,
+    tolerance: float = typer.Option(0.01, "--tolerance", metavar="FRACTION", min=1e-4, max=0.5, callback=finite,
                                     help="Largest distance of the amplitude "
                                     "envelope from its breakpoints, fraction of full scale."),
     transients: bool = typer.Option(True, "--transients/--no-transients", help="Write a sharp onset as an emphasis "

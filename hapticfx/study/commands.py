@@ -10,6 +10,7 @@ from typing import Optional
 
 import typer
 
+from ..cli.options import finite
 from ..errors import StudyError
 
 
@@ -87,7 +88,8 @@ def run(
     simulate: bool = typer.Option(False, "--simulate", help="A simulated participant answers (the study's 'simulate' model)."),
     participants: Optional[int] = typer.Option(None, "--participants", metavar="COUNT", min=1,
                                                help="With --simulate: simulate P01..PN (default: the study's simulate.participants)."),
-    pace: float = typer.Option(0.0, metavar="SECONDS", min=0.0, help="With --simulate: seconds between answers."),
+    pace: float = typer.Option(0.0, metavar="SECONDS", min=0.0, callback=finite,
+                              help="With --simulate: seconds between answers."),
 ):
     """Run one participant through a study: stimuli play on the actuators, answers come from a local web page.
 

@@ -16,13 +16,15 @@ def register_actuators(register):
 def register_commands(app, bench):
     import typer
 
+    from hapticfx.cli.options import finite
+
     @bench.command("isolation")
     def bench_isolation(
         impacts: int = typer.Option(200, "--impacts", "-n", metavar="COUNT", min=4,
                                     help="Impacts to the WAV output per run."),
         repeats: int = typer.Option(3, "--repeats", metavar="COUNT", min=1,
                                     help="Runs per board state (no board, healthy and silent take turns)."),
-        interval_ms: float = typer.Option(20.0, "--interval-ms", metavar="MS", min=0.0,
+        interval_ms: float = typer.Option(20.0, "--interval-ms", metavar="MS", min=0.0, callback=finite,
                                           help="Pause between impacts (ms)."),
     ):
         """Whether a silent solenoid board delays a WAV output in the same engine, and how long close() takes;

@@ -12,6 +12,7 @@ from typing import Optional
 
 import numpy as np
 import typer
+from hapticfx.cli.options import finite
 from hapticfx.errors import HapticfxError, SignalError
 from hapticfx.progress import Progress, say
 
@@ -197,21 +198,21 @@ def bench_output(
     latencies: list[str] = typer.Option(["low"], "--latency", metavar="low|high|SECONDS",
                                         callback=lambda values: [_latency(v) for v in values],
                                         help="Stream latency to time: 'low', 'high' or seconds (repeatable)."),
-    max_latency: Optional[float] = typer.Option(None, "--max-latency", metavar="SECONDS", min=0.0, max=1.0,
+    max_latency: Optional[float] = typer.Option(None, "--max-latency", metavar="SECONDS", min=0.0, max=1.0, callback=finite,
                                                 help="Longest buffer the stream may grow to after underflows "
                                                      "(0: never; default: the actuator's shipped max_latency)."),
-    queue: Optional[float] = typer.Option(None, "--queue", metavar="SECONDS", min=0.0, max=2.0,
+    queue: Optional[float] = typer.Option(None, "--queue", metavar="SECONDS", min=0.0, max=2.0, callback=finite,
                                           help="The actuator's queue option: seconds queued at the PulseAudio server, "
                                                "impacts written over them; 0: the PortAudio stream of --latency "
                                                "(default: the shipped 'auto', a 0.15 s queue where a server answers)."),
-    ahead: Optional[float] = typer.Option(None, "--ahead", metavar="SECONDS", min=0.002, max=0.5,
+    ahead: Optional[float] = typer.Option(None, "--ahead", metavar="SECONDS", min=0.002, max=0.5, callback=finite,
                                           help="With --queue: how far ahead of playback impacts are written "
                                                "(default: the actuator's shipped ahead)."),
-    gap: float = typer.Option(0.55, "--gap", metavar="SECONDS", min=0.05,
+    gap: float = typer.Option(0.55, "--gap", metavar="SECONDS", min=0.05, callback=finite,
                               help="Seconds between impacts (longer than one impact)."),
     device: str = typer.Option("default", "--device", "-d", metavar="DEVICE",
                                help="Sound output to time (its monitor must be the default input)."),
-    seconds: float = typer.Option(2.0, "--seconds", metavar="SECONDS", min=0.1,
+    seconds: float = typer.Option(2.0, "--seconds", metavar="SECONDS", min=0.1, callback=finite,
                                   help="Audio seconds mixed per capacity point."),
     voices: list[int] = typer.Option([1, 100, 1000, 4096], "--voices", metavar="COUNT",
                                      help="Impacts sounding at once (repeatable)."),
@@ -316,7 +317,8 @@ def bench_helmet(
     scene: Path = typer.Argument(Path("scenes/helmet_4.yaml"), help="A scene with a head of several actuators."),
     object: str = typer.Option("concrete-brick", metavar="OBJECT",
                                help="The object that falls (a key of the scene's effects)."),
-    velocity: float = typer.Option(2.6, metavar="M/S", min=0.0, max=100.0, help="Its impact velocity (m/s)."),
+    velocity: float = typer.Option(2.6, metavar="M/S", min=0.0, max=100.0, callback=finite,
+                                  help="Its impact velocity (m/s)."),
     plot: Optional[Path] = typer.Option(None, metavar="PNG",
                                         help="Write the recorded impacts and their levels to this PNG."),
 ):
@@ -350,7 +352,7 @@ def bench_safety(
     runs: int = typer.Option(5, metavar="COUNT", min=1, max=100, help="times each case is run"),
     only: str = typer.Option("", metavar="NAME,...",
                              help="comma-separated case names to run (default: all; see --list)"),
-    flood_s: float = typer.Option(10.0, metavar="SECONDS", min=0.5, max=120.0,
+    flood_s: float = typer.Option(10.0, metavar="SECONDS", min=0.5, max=120.0, callback=finite,
                                   help="seconds of the OSC flood into `hapticfx serve`"),
     list_cases: bool = typer.Option(False, "--list", help="list the cases and exit"),
 ) -> None:
