@@ -8,7 +8,6 @@ real device would get.
 from __future__ import annotations
 
 import abc
-import tempfile
 import threading
 from collections import deque
 from dataclasses import dataclass, field

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from hapticfx.atomic import check_writable
 from hapticfx.errors import CheckpointError, DatasetError
 from hapticfx.progress import Progress
 
@@ -85,6 +86,12 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
     """
     if len(data) == 0:
         raise DatasetError("no training triples: a target needs a recorded velocity on each side")
+    if out is not None:
+        try:  # found now, not after the first epoch
+            check_writable(out)
+        except OSError as exc:
+            raise CheckpointError(f"{out}: cannot write the checkpoint there ({exc.strerror or exc}); "
+                                  "nothing was trained") from None
     data = dataclasses.replace(data, input_drops=training.get("input_drops"))
     torch.set_num_threads(int(training["threads"]))
     device = _device(training.get("device", "cpu"))
@@ -164,12 +171,12 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
             state.update(best=val_rmse, best_epoch=state["epoch"], bad=0)
             best_state = copy.deepcopy(net.state_dict())
             if out is not None:
-                _saved(lambda: _save_best(out, best_state, meta, state, t0), out, state, created)
+                _saved(lambda: _save_best(out, best_state, meta, state, t0), out, created)
         else:
             state["bad"] += 1
         state["elapsed_s"] = time.perf_counter() - t0
         if out is not None:
-            _saved(lambda: _save_resume(out, net, opt, gen, meta, state), out, state, created)
+            _saved(lambda: _save_resume(out, net, opt, gen, meta, state), out, created)
         if bar is not None:
             bar.update(note=f"loss {train_rmse:.4f}, val {val_rmse:.4f}, best epoch {state['best_epoch']}")
     if bar is not None:
@@ -182,11 +189,11 @@ def train_network(arch: str, model: dict, training: dict, data: DropTriples, *, 
     if kept is not None:
         meta["texture"] = kept
     if out is not None:
-        _saved(lambda: _save_best(out, best_state, meta, state, t0), out, state, created)
+        _saved(lambda: _save_best(out, best_state, meta, state, t0), out, created)
     return net, meta
 
 
-def _saved(save, out: Path, state: dict, created: bool) -> None:
+def _saved(save, out: Path, created: bool) -> None:
     """Run ``save``; a full disk or unwritable directory is one error that says what was kept."""
     try:
         save()
@@ -195,8 +202,17 @@ def _saved(save, out: Path, state: dict, created: bool) -> None:
             Path(out).rmdir()  # this run made it and nothing in it survived
             kept = "nothing was saved"
         else:
-            kept = f"epoch {state['epoch'] - 1} is saved there: free space and continue with --resume"
+            kept = _resumable(out)
         raise CheckpointError(f"{out}: cannot write the checkpoint ({exc.strerror or exc}); {kept}") from None
+
+
+def _resumable(out: Path) -> str:
+    """What a run that stopped can continue from in ``out``: the epoch its resume state holds, if it holds one."""
+    try:
+        epoch = checkpoint.read_meta(Path(out) / "resume.safetensors")["resume"]["epoch"]
+    except (CheckpointError, KeyError, TypeError):
+        return "no resume state is saved there"
+    return f"epoch {epoch} is saved there: continue with --resume once it can be written"
 
 
 def _summary(state: dict, t0: float) -> dict:

@@ -277,3 +277,42 @@ def test_training_that_cannot_write_says_so_and_leaves_no_empty_directory(tmp_pa
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert re.search(r"cannot write the checkpoint \(File too large.*\); nothing was saved", r.stderr), r.stderr
     assert not (tmp_path / "ck-convbilstm").exists()
+
+
+@pytest.mark.parametrize("out", ["a-file", "a-file/ck"])
+def test_an_output_that_cannot_hold_a_checkpoint_is_refused_before_training(tmp_path, syn_dataset, out):
+    (tmp_path / "a-file").write_text("not a folder")
+    cfg = load_config(tiny_config(tmp_path, syn_dataset, epochs=1))
+    cfg.out = str(tmp_path / out)
+    with pytest.raises(CheckpointError, match=re.escape(f"{tmp_path / out}: cannot write the checkpoint there "
+                                                        "(Not a directory); nothing was trained")):
+        train_from_config(cfg, progress=False)
+
+
+def test_a_checkpoint_write_that_fails_says_what_can_be_resumed(tmp_path, syn_dataset, monkeypatch):
+    import errno
+    from pathlib import Path
+
+    real, resumes = checkpoint.save, []
+
+    def full_after_one_epoch(path, tensors, meta):
+        resumes.extend([path] if Path(path).name == "resume.safetensors" else [])
+        if len(resumes) > 1:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(path, tensors, meta)
+
+    monkeypatch.setattr(checkpoint, "save", full_after_one_epoch)
+    with pytest.raises(CheckpointError, match=r"cannot write the checkpoint \(No space left on device\); "
+                                              r"epoch 1 is saved there: continue with --resume once it can be written"):
+        train_from_config(load_config(tiny_config(tmp_path, syn_dataset, epochs=3)), progress=False)
+
+    def denied(path, tensors, meta):
+        raise OSError(errno.EACCES, "Permission denied")
+
+    monkeypatch.setattr(checkpoint, "save", denied)
+    (tmp_path / "kept").mkdir()
+    cfg = load_config(tiny_config(tmp_path, syn_dataset, epochs=3))
+    cfg.out = str(tmp_path / "kept")
+    with pytest.raises(CheckpointError, match=r"cannot write the checkpoint \(Permission denied\); "
+                                              r"no resume state is saved there"):
+        train_from_config(cfg, progress=False)
