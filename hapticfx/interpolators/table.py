@@ -237,11 +237,12 @@ class VelocityTable:
         return path
 
     @classmethod
-    def load(cls, path: str | Path) -> "VelocityTable":
-        """Read and validate a table file; anything malformed is a :class:`CheckpointError` naming it."""
+    def load(cls, path: str | Path, *, rebuild: str | None = None) -> "VelocityTable":
+        """Read and validate a table file; anything malformed is a :class:`CheckpointError` naming it.
+        ``rebuild``: how to write a table that is not there, said when it is not."""
         path = Path(path)
         if not path.is_file():
-            raise CheckpointError(f"{path}: velocity table not found")
+            raise CheckpointError(f"{path}: velocity table not found" + (f"; {rebuild}" if rebuild else ""))
         try:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}

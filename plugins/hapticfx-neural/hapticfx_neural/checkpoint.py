@@ -79,16 +79,19 @@ def table_path(weights: Path) -> Path:
 
 
 def resolve(ref: str | os.PathLike) -> Path:
-    """``model.safetensors`` of a checkpoint given as its directory or its file."""
+    """``model.safetensors`` of a checkpoint given as its directory (there or to be made) or its ``.safetensors``
+    file (or the ``.json`` beside it); a path to anything else is refused, named as given."""
     p = user_path(ref)
-    if p.is_dir():
-        p = p / "model.safetensors"
-    if p.suffix != ".safetensors":
-        p = p.with_suffix(".safetensors")
-    return p
+    if p.suffix in (".safetensors", ".json") and not p.is_dir():
+        return p.with_suffix(".safetensors")
+    if p.is_dir() or not (p.suffix or p.exists()):
+        return p / "model.safetensors"
+    raise CheckpointError(f"{p}: {'not a checkpoint' if p.exists() else 'checkpoint not found'}; expected a "
+                          "checkpoint directory or its model.safetensors")
 
 
-def read_meta(path: Path) -> dict:
+def read_meta(path: Path, *, arch: str | None = None) -> dict:
+    """The checkpoint's validated ``.json``; with ``arch``, one of another interpolator is refused as such."""
     meta_file = Path(path).with_suffix(".json")
     if not Path(path).is_file() or not meta_file.is_file():
         raise CheckpointError(f"{path}: checkpoint not found (needs {Path(path).name} and {meta_file.name}); "
@@ -100,12 +103,13 @@ def read_meta(path: Path) -> dict:
             raise CheckpointError(f"{exc} (older networks were trained on representatives only, not on the "
                                   "neighbours' drop centres); retrain with `hapticfx train CONFIG.yaml`") from None
         raise
-    check_meta(meta, meta_file)
+    check_meta(meta, meta_file, arch=arch)
     return meta
 
 
-def check_meta(meta: dict, where: Path) -> None:
-    """Refuse metadata that would break (or exhaust) the network built from it, naming the key."""
+def check_meta(meta: dict, where: Path, *, arch: str | None = None) -> None:
+    """Refuse metadata that would break (or exhaust) the network built from it, naming the key; with ``arch``,
+    a checkpoint of another interpolator is said to be one before its model is checked against that one's keys."""
     import math
     import re
 
@@ -118,6 +122,8 @@ def check_meta(meta: dict, where: Path) -> None:
             raise CheckpointError(f"expected {expected}", source=src, key=key)
 
     need("interpolator", meta.get("interpolator") in ARCHS, f"one of {', '.join(ARCHS)}")
+    if arch is not None:
+        check_compatible(meta, where, arch=arch)
     model = meta.get("model")
     if isinstance(model, dict):  # keys added since the checkpoint was written: what it was trained with
         model = meta["model"] = {**{k: v for k, v in ADDED_MODEL_KEYS.items()

@@ -130,10 +130,10 @@ class NeuralInterpolator(TableServed):
                 self.centres = dataset_centres(self.meta, dataset, [bank.object], bank.reducer)
             return
         if self.table is None:
-            meta = checkpoint.read_meta(path)
+            meta = checkpoint.read_meta(path, arch=self.arch)
             checkpoint.check_compatible(meta, path, arch=self.arch, n_samples=bank.n_samples, dataset=name,
                                         reducer=bank.reducer)
-            table = VelocityTable.load(checkpoint.table_path(path))
+            table = VelocityTable.load(checkpoint.table_path(path), rebuild=_rebuild_hint(path))
             table.check_source(self.arch, checkpoint.table_source(meta), rebuild=_rebuild_hint(path))
             self.table, self.meta = table, meta
         self.table.attach(bank, rebuild=_rebuild_hint(path))

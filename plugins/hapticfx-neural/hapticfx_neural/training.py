@@ -273,7 +273,7 @@ def _device(name: str) -> torch.device:
 def load_network(path: Path, *, arch: str, n_samples: int | None = None, dataset: str | None = None,
                  reducer: str | None = None) -> tuple[torch.nn.Module, dict]:
     """A trained network from a checkpoint, refused clearly if it was built for something else."""
-    meta = checkpoint.read_meta(path)
+    meta = checkpoint.read_meta(path, arch=arch)
     checkpoint.check_compatible(meta, path, arch=arch, n_samples=n_samples, dataset=dataset, reducer=reducer)
     net = make_network(arch, meta["model"], int(meta["n_samples"]))
     tensors = checkpoint.load_tensors(path, sha256=meta["weights_sha256"])

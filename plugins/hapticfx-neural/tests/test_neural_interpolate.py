@@ -114,7 +114,8 @@ def test_stale_or_missing_tables_are_refused_and_rebuilt(tmp_path, trained, syn_
         serve()
     shutil.copy(trained.with_suffix(".json"), ck / "model.json")
     table.unlink()
-    with pytest.raises(CheckpointError, match="model.table.npz: velocity table not found"):
+    with pytest.raises(CheckpointError, match=r"model.table.npz: velocity table not found; "
+                                              r"rebuild it with `hapticfx table .*ck`"):
         serve()
     r = subprocess.run([sys.executable, "-m", "hapticfx", "table", str(ck)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr

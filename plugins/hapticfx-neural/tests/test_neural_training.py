@@ -94,6 +94,35 @@ def test_checkpoint_for_another_architecture_or_dataset_is_refused(trained, syn_
         get_registry().create("interpolator", "convbilstm", weights=str(trained)).prepare(bank, dataset=Other())
 
 
+def test_a_checkpoint_of_another_interpolator_is_said_to_be_one_before_its_model_is_checked(tmp_path, trained,
+                                                                                             syn_dataset):
+    import shutil
+
+    from hapticfx.data.dataset import open_dataset
+    from hapticfx.registry import get_registry
+
+    shutil.copy(trained, tmp_path / "model.safetensors")
+    meta = json.loads(trained.with_suffix(".json").read_text())
+    (tmp_path / "model.json").write_text(json.dumps({**meta, "interpolator": "lstm"}))  # a convbilstm's model keys
+    ds = open_dataset(syn_dataset)
+    with pytest.raises(CheckpointError, match="model.json: built for interpolator 'lstm', not 'convbilstm'"):
+        get_registry().create("interpolator", "convbilstm", weights=str(tmp_path)).prepare(
+            ds.bank("plastic-frame", "max-min"), dataset=ds)
+
+
+@pytest.mark.parametrize("given, said", [("o/n.wav", "checkpoint not found"), ("a.wav", "not a checkpoint")])
+def test_hapticfx_table_names_the_path_it_was_given(tmp_path, capsys, monkeypatch, given, said):
+    from hapticfx.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.wav").write_bytes(b"RIFF")
+    with pytest.raises(SystemExit) as done:
+        main(["table", given])
+    assert done.value.code == 2
+    assert capsys.readouterr().err == (f"hapticfx: error: {given}: {said}; expected a checkpoint directory or its "
+                                       "model.safetensors\n")
+
+
 def test_checkpoint_whose_weights_do_not_fit_its_description_is_refused(tmp_path, trained):
     import shutil
 
