@@ -80,11 +80,18 @@ def test_unsorted_velocities_are_sorted_with_their_drops():
     ([2.0, 3.0], (2, 1, 100, 2), r"shape \(2, drops, samples, 3\)"),
     ([0.0, 3.0], (2, 1, 100, 3), "must be > 0"),
     ([np.nan, 3.0], (2, 1, 100, 3), "non-finite"),
-    ([2.0], (1, 1, 100, 3), "needs drops at 2 or more velocities"),
 ])
 def test_bad_recordings_are_rejected(velocities, shape, match):
     with pytest.raises(DatasetError, match=match):
         ObjectRecordings(PAPER_OBJECTS["wood-beam"], np.array(velocities), np.zeros(shape))
+
+
+def test_the_drops_of_one_height_are_recordings_but_not_a_dataset(tmp_path):
+    """`data record` reads back one height's drops; a dataset needs two velocities to interpolate between."""
+    one = ObjectRecordings(PAPER_OBJECTS["wood-beam"], np.array([2.0]), np.zeros((1, 1, 100, 3)))
+    with pytest.raises(DatasetError, match="needs drops at 2 or more velocities"):
+        build_dataset(tmp_path / "ds", [one], **META)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_failure_leaves_nothing_behind(tmp_path):

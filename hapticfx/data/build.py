@@ -54,9 +54,10 @@ class ObjectRecordings:
         self.accel_g = a[order]
 
 
-def check_velocities(velocities, label: str) -> np.ndarray:
+def check_velocities(velocities, label: str, *, minimum: int = 1) -> np.ndarray:
     """The recorded velocities of one object (``label`` names it) as an array: finite, > 0 m/s, each once,
-    and at least two, which a dataset's models interpolate between."""
+    and at least ``minimum`` of them (a dataset needs two, which its models interpolate between; the
+    recordings of one drop height have one)."""
     try:
         v = valid_signal(velocities, name=f"{label} velocities_mps", ndim=1)
     except HapticfxError as exc:
@@ -65,8 +66,9 @@ def check_velocities(velocities, label: str) -> np.ndarray:
         raise DatasetError(f"{label}: velocities must be > 0 m/s, got {v.tolist()}")
     if len(np.unique(v)) < len(v):
         raise DatasetError(f"{label}: velocity recorded twice in {v.tolist()}; put all drops of a velocity together")
-    if len(v) < 2:
-        raise DatasetError(f"{label}: needs drops at 2 or more velocities to interpolate between, got {v.tolist()}")
+    if len(v) < minimum:
+        raise DatasetError(f"{label}: needs drops at {minimum} or more velocities to interpolate between, "
+                           f"got {v.tolist()}")
     return v
 
 
@@ -114,6 +116,7 @@ def build_dataset(
             if oid in seen:
                 raise DatasetError(f"object {oid!r} given twice")
             seen.add(oid)
+            check_velocities(rec.velocities_mps, f"object {oid!r}", minimum=2)
             say(f"{oid}: preprocessing {rec.accel_g.shape[0]} velocities x {rec.accel_g.shape[1]} drops")
             # Preprocess what is stored (float32), so that the banks, the fitted tables and
             # Dataset.windows() all see the same numbers.

@@ -248,7 +248,7 @@ def synth_dataset(out: Path, objects: Iterable[ObjectInfo], velocities=PAPER_VEL
         raise DatasetError("no objects to simulate")
     # what would fail in writing the dataset fails before minutes of simulation, not after
     per_object = {o.id: check_velocities(velocities[o.id] if isinstance(velocities, dict) else velocities,
-                                         f"object {o.id!r}") for o in objects}
+                                         f"object {o.id!r}", minimum=2) for o in objects}
     check_output(Path(out), overwrite=overwrite)
     started = time.perf_counter()
     recordings = [
