@@ -39,7 +39,7 @@ import numpy as np
 from .errors import DeviceError, EffectError, HapticfxError, one_line
 from .interfaces import Actuator, Impact, valid_vector
 from .osc import ImpactMessage
-from .pipeline import Delivery, Pipeline, build_actuator
+from .pipeline import Delivery, Pipeline, build_actuator, open_actuator
 from .ratelog import RateLimitedLog
 from .registry import Registry
 from .safety import SafetyLimiter
@@ -273,7 +273,7 @@ class Engine:
             for out in self._outputs.values():
                 for actuator in out.actuators:
                     actuator.limits = out.limits  # what an actuator that limits its own mix holds on it
-                    actuator.open()
+                    open_actuator(actuator)
                     opened.append(actuator)
                 out.arm()
                 for pipeline in out.pipelines:  # shape and limit at the rate the device agreed on

@@ -8,6 +8,7 @@ plays it and returns what was sent.
 from __future__ import annotations
 
 import dataclasses
+import math
 import threading
 import time
 from dataclasses import dataclass
@@ -16,8 +17,8 @@ from pathlib import Path
 from .actuators.virtual import CsvActuator, MemoryActuator, WavActuator
 from .atomic import user_path
 from .effect import Effect, Plan, check_effect, effective_limits, load_effect
-from .errors import DeviceError, EffectError, HapticfxError
-from .interfaces import Actuator, Impact, Model
+from .errors import DeviceError, EffectError, HapticfxError, PluginError
+from .interfaces import Actuator, ActuatorSpec, Impact, Model, SafetyLimits
 from .params import BuildContext
 from .registry import Registry, get_registry
 from .safety import LimiterReport, SafetyLimiter
@@ -71,11 +72,54 @@ def _located(build, effect: Effect, key: str):
         raise type(exc)(str(exc), source=effect.source, key=key) from None
 
 
+MAX_ACTUATOR_RATE_HZ = 1e6
+
+
+def check_spec(actuator: Actuator) -> None:
+    """Refuse an actuator whose spec the core cannot trust: a rate, range, band or gain out of bounds, or hard
+    limits that are not the core's own :class:`SafetyLimits` (a subclass may skip their checks)."""
+    spec, who = actuator.spec, f"actuator {getattr(actuator, 'name', type(actuator).__name__)!r}"
+
+    def real(v, lo, hi) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and lo <= v <= hi
+
+    if not isinstance(spec, ActuatorSpec):
+        raise PluginError(f"{who}: spec is a {type(spec).__name__}, not an ActuatorSpec")
+    band = spec.band_hz
+    problems = [
+        (not real(spec.rate_hz, 1.0, MAX_ACTUATOR_RATE_HZ), f"rate_hz {spec.rate_hz!r} (1 to {MAX_ACTUATOR_RATE_HZ:g})"),
+        (not real(spec.volts_peak, 1e-9, 1e6), f"volts_peak {spec.volts_peak!r} (> 0)"),
+        (not (isinstance(band, tuple) and len(band) == 2 and real(band[0], 0.0, math.inf)
+              and real(band[1], band[0], math.inf) and band[1] > band[0]), f"band_hz {band!r} (low < high, >= 0)"),
+        (not real(spec.default_gain, 0.0, 1.0), f"default_gain {spec.default_gain!r} (0 to 1)"),
+        (type(spec.limits) is not SafetyLimits, f"limits of type {type(spec.limits).__name__} (SafetyLimits)"),
+    ]
+    bad = [what for wrong, what in problems if wrong]
+    if bad:
+        raise PluginError(f"{who}: its spec has {bad[0]}")
+
+
+def open_actuator(actuator: Actuator) -> None:
+    """``actuator.open()``, then its spec checked again: it may agree on another rate with the device, but
+    its hard limits are what the limiters were built with, and they stay."""
+    limits = actuator.spec.limits
+    actuator.open()
+    try:
+        check_spec(actuator)
+        if actuator.spec.limits != limits:
+            raise PluginError(f"actuator {getattr(actuator, 'name', type(actuator).__name__)!r} changed its hard "
+                              "limits when it opened; an actuator declares them before")
+    except PluginError:
+        actuator.close()
+        raise
+
+
 def build_actuator(plan: Plan, effect: Effect, device: str | int | None) -> Actuator:
     """The (unopened) actuator of ``effect``'s section, or the virtual one ``device`` names in its place."""
     virtual = stand_in(device)
     context = effect.context(device=None if virtual else device)
     device_actuator: Actuator = _located(lambda: plan.actuator_cls(plan.actuator_params, context), effect, "actuator")
+    _located(lambda: check_spec(device_actuator), effect, "actuator")
     if not virtual:
         return device_actuator
     cls, path = virtual
@@ -119,7 +163,7 @@ class Pipeline:
     def open(self) -> "Pipeline":
         if not self._opened:
             limits_own_mix(self.actuator)  # the conformance verdict before the device plays (see adopt)
-            self.actuator.open()
+            open_actuator(self.actuator)
             self._opened = True
             self.adopt(self.actuator)
         return self

@@ -1,0 +1,80 @@
+"""An actuator plugin the core cannot take at its word: its spec is checked when it is built and again after
+open(), where it may change its rate but not its hard limits."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from hapticfx import hookspecs
+from hapticfx.actuators.virtual import MemoryActuator
+from hapticfx.errors import PluginError
+from hapticfx.interfaces import ActuatorSpec, SafetyLimits
+from hapticfx.pipeline import Pipeline
+from hapticfx.registry import Registry, create_plugin_manager
+
+KE = "{type: kinetic-energy, ke_max_j: 0.1}"  # a loud square pulse: any impact reaches full scale
+
+
+def _registry(actuator_cls):
+    class P:
+        @hookspecs.hookimpl
+        def register_actuators(self, register):
+            register("fx-test", actuator_cls)
+
+    pm, infos = create_plugin_manager(entry_points=False)
+    pm.register(P(), name="fx-test-plugin")
+    return Registry(pm, infos)
+
+
+def _effect(tmp_path, actuator="{type: fx-test}"):
+    path = tmp_path / "e.yaml"
+    path.write_text(f"name: e\nobject: concrete-brick\nmodel: {KE}\nactuator: {actuator}\n")
+    return path
+
+
+def _spec(**change):
+    return dataclasses.replace(ActuatorSpec(8000.0, 1.0, (0.0, 4000.0), limits=SafetyLimits(peak=0.9, rms=0.9)),
+                               **change)
+
+
+class _Loose(SafetyLimits):
+    def __post_init__(self):  # skips the checks that keep peak <= 1
+        pass
+
+
+@pytest.mark.parametrize("change, words", [
+    (dict(rate_hz=math.nan), "rate_hz nan"),
+    (dict(rate_hz=1e9), "rate_hz 1000000000.0"),
+    (dict(band_hz=(3000.0, 50.0)), "band_hz (3000.0, 50.0)"),
+    (dict(volts_peak=math.nan), "volts_peak nan"),
+    (dict(default_gain="1"), "default_gain '1'"),
+    (dict(limits=None), "limits of type NoneType"),
+    (dict(limits=_Loose(peak=5.0, rms=5.0)), "limits of type _Loose"),
+])
+def test_a_spec_out_of_bounds_is_refused_naming_the_actuator(tmp_path, change, words):
+    class Odd(MemoryActuator):
+        name = "fx-test"
+
+        def __init__(self, params, context):
+            super().__init__(params, context, spec=_spec(**change))
+
+    with pytest.raises(PluginError) as err:
+        Pipeline.from_effect(_effect(tmp_path), registry=_registry(Odd))
+    assert f"actuator 'fx-test': its spec has {words}" in str(err.value) and str(err.value).startswith(str(tmp_path))
+
+
+def test_hard_limits_changed_in_open_are_refused(tmp_path):
+    class Changes(MemoryActuator):
+        name = "fx-test"
+
+        def __init__(self, params, context):
+            super().__init__(params, context, spec=_spec())
+
+        def open(self):
+            self.spec = _spec(rate_hz=16000.0, limits=SafetyLimits(peak=0.1, rms=0.05))
+
+    with pytest.raises(PluginError, match="'fx-test' changed its hard limits when it opened"):
+        Pipeline.from_effect(_effect(tmp_path), registry=_registry(Changes)).open()
