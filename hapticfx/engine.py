@@ -150,9 +150,10 @@ class _Output:
         if self.sites is None:
             self.limiter = host_limiter(self.actuator, self.limits, summed=len(self.pipelines) > 1)
             return
-        for site in self.sites:
-            site.limiter = host_limiter(site.actuator, self.limits,
-                                        summed=len(self.sites) > 1 or len(self.pipelines) > 1)
+        for site in self.sites:  # a site's own hard limits (its channel's) hold on it as well
+            limits = self.limits.strictest(site.actuator.spec.limits)
+            site.limiter = host_limiter(site.actuator, limits, summed=len(self.sites) > 1 or len(self.pipelines) > 1
+                                        or limits != self.limits)
 
     def reports(self) -> list:
         """The host's limiter reports of this output (its sum, or each site's)."""
@@ -271,8 +272,8 @@ class Engine:
                 for actuator in out.actuators:  # the conformance verdicts, before any stream plays
                     limits_own_mix(actuator)
             for out in self._outputs.values():
-                for actuator in out.actuators:
-                    actuator.limits = out.limits  # what an actuator that limits its own mix holds on it
+                for actuator in out.actuators:  # what an actuator that limits its own mix holds on it
+                    actuator.limits = out.limits.strictest(actuator.spec.limits)
                     open_actuator(actuator)
                     opened.append(actuator)
                 out.arm()

@@ -1,15 +1,17 @@
 """An actuator plugin the core cannot take at its word: its spec is checked when it is built and again after
-open(), where it may change its rate but not its hard limits."""
+open(), where it may change its rate but not its hard limits; each head site holds its own channel's limits."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 
 from hapticfx import hookspecs
 from hapticfx.actuators.virtual import MemoryActuator
+from hapticfx.engine import Engine
 from hapticfx.errors import PluginError
 from hapticfx.interfaces import ActuatorSpec, SafetyLimits
 from hapticfx.pipeline import Pipeline
@@ -78,3 +80,27 @@ def test_hard_limits_changed_in_open_are_refused(tmp_path):
 
     with pytest.raises(PluginError, match="'fx-test' changed its hard limits when it opened"):
         Pipeline.from_effect(_effect(tmp_path), registry=_registry(Changes)).open()
+
+
+def test_each_head_site_holds_its_own_channels_hard_limits(tmp_path):
+    """A plugin may declare stricter limits on one channel: the site on that channel keeps them."""
+    class PerChannel(MemoryActuator):
+        name = "fx-test"
+
+        def __init__(self, params, context):
+            peak = 0.1 if context.channel == 1 else 0.9
+            super().__init__(params, context, spec=_spec(limits=SafetyLimits(peak=peak, rms=peak)))
+
+    _effect(tmp_path, "{type: memory}")
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: s\nactuators:\n  helmet: {type: fx-test}\n"
+                     "head:\n  actuator: helmet\n  sites:\n"
+                     "    crown: {position: [0.0, 0.0, 0.13], channel: 0}\n"
+                     "    front: {position: [0.0, 0.1126, 0.065], channel: 1}\n"
+                     "effects:\n  brick: {effect: e.yaml, actuator: helmet}\n")
+    engine = Engine(scene, registry=_registry(PerChannel))
+    engine.impact("brick", 5.0, point=[0.0, 0.1126, 0.065])
+    engine.close()  # plays what is queued
+    sites = {s.channel: s.actuator for s in engine._outputs["actuators.helmet"].sites}
+    front = np.concatenate([s.samples for s in sites[1].played])
+    assert 0.0 < np.max(np.abs(front)) <= 0.1 + 1e-12
