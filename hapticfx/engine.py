@@ -364,7 +364,7 @@ class Engine:
                 continue
             try:
                 playback = self._play(out, job, time.monotonic() - self._t0)
-            except Exception as exc:  # one bad event must never stop the engine
+            except BaseException as exc:  # one bad event (a plugin's SystemExit too) must never stop the engine
                 self._failed(out, job, exc)
                 if out.stop.is_set() and out.failing:  # closing: the rest would only fail the same way
                     self._cancel_pending(out)
@@ -430,7 +430,7 @@ class Engine:
             _play_on(site.actuator, Signal.adopt(per_site[k], rate), job)
         return Signal.adopt(per_site, rate), limited
 
-    def _failed(self, out: _Output, job: _Job, exc: Exception) -> None:
+    def _failed(self, out: _Output, job: _Job, exc: BaseException) -> None:
         kind = type(exc).__name__
         with self._lock:
             out.counts["failed"] += 1

@@ -1,5 +1,6 @@
 """An actuator plugin the core cannot take at its word: its spec is checked when it is built and again after
-open(), where it may change its rate but not its hard limits; each head site holds its own channel's limits."""
+open(), where it may change its rate but not its hard limits; each head site holds its own channel's limits.
+A model's SystemExit is one failed impact, not a dead engine."""
 
 from __future__ import annotations
 
@@ -104,3 +105,31 @@ def test_each_head_site_holds_its_own_channels_hard_limits(tmp_path):
     sites = {s.channel: s.actuator for s in engine._outputs["actuators.helmet"].sites}
     front = np.concatenate([s.samples for s in sites[1].played])
     assert 0.0 < np.max(np.abs(front)) <= 0.1 + 1e-12
+
+
+def test_a_models_system_exit_is_one_failed_impact_and_the_engine_serves_on(tmp_path):
+    from hapticfx.models.kinetic import KineticEnergyModel
+
+    class Quits(KineticEnergyModel):
+        def terms(self, impact):  # what the pipeline renders a kinetic-energy impact from
+            if impact.velocity > 4.0:
+                raise SystemExit(1)
+            return super().terms(impact)
+
+    class P:
+        @hookspecs.hookimpl
+        def register_models(self, register):
+            register("fx-quits", Quits)
+
+    pm, infos = create_plugin_manager(entry_points=False)
+    pm.register(P(), name="fx-test-plugin")
+    path = tmp_path / "e.yaml"
+    path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-quits}\nactuator: {type: memory}\n")
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: s\neffects:\n  brick: e.yaml\n")
+    engine = Engine(scene, registry=Registry(pm, infos))
+    engine.impact("brick", 5.0)
+    engine.impact("brick", 3.0)
+    stats = engine.close()  # plays what is queued
+    out = stats["outputs"]["brick"]
+    assert (out["failed"], out["rendered"], out.get("errors")) == (1, 1, {"SystemExit": 1}), stats
