@@ -108,12 +108,17 @@ def _cache_file() -> Path:
     return cache_root() / "conformance.json"
 
 
-def fingerprint(cls) -> str:
-    """A hash of the code a class's verdict depends on: its top-level package's sources and the core limiter."""
+def fingerprint(cls) -> str | None:
+    """A hash of the code a class's verdict depends on: its top-level package's sources (a single module: its
+    own file) and the core limiter; None for a class with no source file (defined in a REPL, a notebook or
+    ``python -c``), whose verdict is then not remembered."""
     top = sys.modules[cls.__module__.split(".")[0]]
-    files = sorted(Path(top.__file__).parent.rglob("*.py")) + [Path(__file__), Path(__file__).with_name("safety.py")]
+    source = getattr(top, "__file__", None)
+    if source is None:
+        return None
+    own = sorted(Path(source).parent.rglob("*.py")) if hasattr(top, "__path__") else [Path(source)]
     digest = hashlib.sha256(f"{cls.__module__}.{cls.__qualname__}".encode())
-    for path in files:
+    for path in own + [Path(__file__), Path(__file__).with_name("safety.py")]:
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
@@ -153,10 +158,11 @@ def limits_own_mix(actuator) -> bool:
         verdict = _verdicts.get(cls)
         if verdict is None:
             mark = fingerprint(cls)
-            problems = _remembered(cls, mark)
+            problems = _remembered(cls, mark) if mark is not None else None
             if problems is None:
                 problems = check_mix_limiter(cls)
-                _remember(cls, mark, problems)
+                if mark is not None:
+                    _remember(cls, mark, problems)
             verdict = _verdicts[cls] = not problems
             if problems:
                 log.warning("%s declares limits_mix but its limiter failed the conformance check (%s); the host "

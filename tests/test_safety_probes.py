@@ -159,3 +159,39 @@ def test_the_hosts_verdict_is_computed_once_per_version_of_the_code(tmp_path, mo
     monkeypatch.setattr(conformance, "fingerprint", lambda cls: "other code")
     monkeypatch.setattr(conformance, "_verdicts", {})
     assert conformance.limits_own_mix(actuator) and calls == [owner, owner]
+
+
+def test_a_class_without_a_source_file_is_checked_and_not_remembered(tmp_path, monkeypatch):
+    """Defined in a REPL, a notebook or `python -c`: no file to fingerprint (it raised AttributeError)."""
+    import sys
+    import types
+
+    from hapticfx import conformance
+    from hapticfx.actuators.virtual import WavActuator
+
+    monkeypatch.setenv("HAPTICFX_CACHE", str(tmp_path))
+    module = types.ModuleType("fx_no_file")  # no __file__, as __main__ in a REPL
+    monkeypatch.setitem(sys.modules, "fx_no_file", module)
+    owner = type("Repl", (WavActuator,), {"__module__": "fx_no_file", "mix_probe": WavActuator.mix_probe})
+    assert conformance.fingerprint(owner) is None
+    assert conformance.limits_own_mix(owner.__new__(owner)) and not (tmp_path / "conformance.json").exists()
+
+
+def test_a_single_module_plugin_is_fingerprinted_by_its_own_file(tmp_path, monkeypatch):
+    """Not every file in the folder it sits in (site-packages: sixteen thousand)."""
+    import sys
+    import types
+
+    from hapticfx import conformance
+
+    (tmp_path / "fx_single.py").write_text("x = 1\n")
+    (tmp_path / "neighbour.py").write_text("y = 1\n")
+    module = types.ModuleType("fx_single")
+    module.__file__ = str(tmp_path / "fx_single.py")
+    monkeypatch.setitem(sys.modules, "fx_single", module)
+    cls = type("Single", (), {"__module__": "fx_single"})
+    before = conformance.fingerprint(cls)
+    (tmp_path / "neighbour.py").write_text("y = 2\n")
+    assert conformance.fingerprint(cls) == before
+    (tmp_path / "fx_single.py").write_text("x = 2\n")
+    assert conformance.fingerprint(cls) != before
