@@ -135,6 +135,7 @@ class _Output:
         self.told: set[str] = set()  # the limits the log has already said acted
         self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self.stop = threading.Event()
+        self.closed = threading.Event()  # its actuators are being closed: nothing more is played into them
         self.counts = dict.fromkeys(OUTPUT_COUNTS, 0)
         self.errors: dict[str, int] = {}
         self.latencies: deque[float] = deque(maxlen=LATENCIES_KEPT)
@@ -159,6 +160,10 @@ class _Output:
         """The host's limiter reports of this output (its sum, or each site's)."""
         limiters = [self.limiter] if self.sites is None else [s.limiter for s in self.sites]
         return [lim.report() for lim in limiters if lim is not None]
+
+
+class _Closed(Exception):
+    """An impact that finished rendering after its output's actuators began to close: cancelled."""
 
 
 def _play_on(actuator: Actuator, signal: Signal, job: "_Job") -> None:
@@ -364,6 +369,10 @@ class Engine:
                 continue
             try:
                 playback = self._play(out, job, time.monotonic() - self._t0)
+            except _Closed:
+                with self._lock:
+                    out.counts["cancelled"] += 1
+                continue
             except BaseException as exc:  # one bad event (a plugin's SystemExit too) must never stop the engine
                 self._failed(out, job, exc)
                 if out.stop.is_set() and out.failing:  # closing: the rest would only fail the same way
@@ -387,6 +396,8 @@ class Engine:
                                           point=job.point, normal=job.normal))
         signal = delivery.output
         limited = delivery.limiter.total > 0
+        if out.closed.is_set():  # it rendered past the close timeout: its actuators are closing or closed
+            raise _Closed
         if out.spatialiser is not None:
             signal, spread_limited = self._spread(out, job, signal, now)
             limited = limited or spread_limited
@@ -520,7 +531,11 @@ class Engine:
         Impacts queued for an output whose device is failing are cancelled, not
         waited on. Waits at most ``timeout`` seconds (default: the scene's
         ``engine.close_timeout_s``) for the workers, then closes every actuator
-        (in parallel). Returns :meth:`stats`. Closing twice is harmless.
+        (in parallel), waiting as long again (at least 1 s) for them: an impact
+        that finishes rendering after that is cancelled, not played, and an
+        actuator whose ``close()`` does not return is left to finish on its own
+        and named in ``stats()["close_errors"]``. Returns :meth:`stats`.
+        Closing twice is harmless.
         """
         with self._lock:
             already, self._closed = self._closed, True
@@ -539,12 +554,20 @@ class Engine:
             log.warning("still playing on %s after %.1f s; closing the actuators anyway", ", ".join(stuck), timeout)
             for out in self._outputs.values():
                 self._cancel_pending(out)
-        closers = [threading.Thread(target=self._close_output, args=(out,), name=f"hapticfx-close:{out.name}")
-                   for out in self._outputs.values()]
+        for out in self._outputs.values():
+            out.closed.set()
+        closers = [threading.Thread(target=self._close_output, args=(out,), name=f"hapticfx-close:{out.name}",
+                                    daemon=True) for out in self._outputs.values()]
         for t in closers:
             t.start()
-        for t in closers:
-            t.join()
+        deadline = time.monotonic() + max(timeout, 1.0)  # as long again for the actuators' close()
+        for t, out in zip(closers, self._outputs.values()):
+            t.join(max(0.0, deadline - time.monotonic()))
+            if t.is_alive():
+                waited = max(timeout, 1.0)
+                log.warning("closing %s did not return within %.1f s; left to finish on its own", out.name, waited)
+                with self._lock:
+                    self._close_errors[out.name] = f"close() did not return within {waited:g} s"
         self._log.flush()
         return self.stats()
 

@@ -133,3 +133,61 @@ def test_a_models_system_exit_is_one_failed_impact_and_the_engine_serves_on(tmp_
     stats = engine.close()  # plays what is queued
     out = stats["outputs"]["brick"]
     assert (out["failed"], out["rendered"], out.get("errors")) == (1, 1, {"SystemExit": 1}), stats
+
+
+def test_close_is_bounded_and_plays_nothing_into_a_closed_actuator(tmp_path):
+    """A render that outlasts close_timeout_s is cancelled, not played; an actuator whose close() hangs is
+    named and left behind, and close() returns."""
+    import threading
+    import time
+
+    from hapticfx.models.kinetic import KineticEnergyModel
+
+    release = threading.Event()
+
+    class Slow(KineticEnergyModel):
+        def terms(self, impact):
+            time.sleep(0.6)
+            return super().terms(impact)
+
+    class Hangs(MemoryActuator):
+        name = "fx-test"
+        closing = False
+
+        def close(self):
+            self.closing = True
+            release.wait()
+
+        def play(self, signal):  # an impact played after close() would fail here, not be cancelled
+            assert not self.closing, "play() after close()"
+            super().play(signal)
+
+    class P:
+        @hookspecs.hookimpl
+        def register_models(self, register):
+            register("fx-slow", Slow)
+
+        @hookspecs.hookimpl
+        def register_actuators(self, register):
+            register("fx-test", Hangs)
+
+    pm, infos = create_plugin_manager(entry_points=False)
+    pm.register(P(), name="fx-test-plugin")
+    path = tmp_path / "e.yaml"
+    path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-slow}\nactuator: {type: fx-test}\n")
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: s\neffects:\n  brick: e.yaml\nengine: {close_timeout_s: 0.2}\n")
+    engine = Engine(scene, registry=Registry(pm, infos))
+    engine.impact("brick", 3.0)
+    time.sleep(0.1)  # it is rendering
+    started, closed = time.monotonic(), []
+    closer = threading.Thread(target=lambda: closed.append(engine.close()), daemon=True)
+    closer.start()
+    closer.join(5.0)
+    took = time.monotonic() - started
+    release.set()
+    assert closed, "close() did not return"
+    stats = closed[0]
+    time.sleep(0.7)  # the render ends: it must not be played into the closed actuator
+    assert took < 3.0 and stats["close_errors"] == {"brick": "close() did not return within 1 s"}
+    assert engine.stats()["outputs"]["brick"]["cancelled"] == 1
