@@ -211,6 +211,19 @@ def test_the_file_bound_stops_writing_says_so_once_and_leaves_a_valid_file(tmp_p
     assert data.shape[1] == frames and onsets(data[0], rate).size == 4
 
 
+def test_one_impact_past_the_bound_does_not_end_the_recording(tmp_path):
+    """A sender's clock that jumps once (1e6 s) lost that impact; it padded the file out to its bound, and every
+    later impact, at its own time, was cut."""
+    scene, wav = write_scene(tmp_path, rate=8000, extra="format: pcm16, max_mib: 0.05")  # 3.3 s
+    with Engine(scene) as engine:
+        for at in (0.0, 1e6, 1.0, 2.0):
+            engine.impact("concrete-brick", 4.0, at=at)
+        stats = engine.close(timeout=300)
+    assert stats["outputs"]["actuators.helmet"]["losses"] == {"cut_at_file_bound": 1}
+    rate, data = read_wav(wav)
+    assert onsets(data[0], rate).size == 3 and data.shape[1] < 3.3 * 8000
+
+
 def test_play_from_the_cli_puts_its_one_impact_at_0(tmp_path):
     """`play --device wav:` writes what `render` renders, sample for sample: the impact at 0, nothing after."""
     effect = "effects/falling_brick_kinetic.yaml"

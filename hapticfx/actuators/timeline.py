@@ -79,7 +79,9 @@ class Timeline:
                             "not written", self.name, mib, self.max_frames / self.rate_hz, self.rate_hz,
                             self.max_frames / self.rate_hz)
             self.cut += 1
-            block = block[:, :max(0, room)]
+            if room <= 0:  # wholly past the bound: not written, and the file is not padded out to it for it
+                return
+            block = block[:, :room]
         self._flush(start - self.hold)
         end = start + block.shape[1]
         if block.shape[1]:
