@@ -36,7 +36,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import DeviceError, EffectError, HapticfxError, one_line
+from .errors import DeviceError, EffectError, HapticfxError, SignalError, one_line, preview
 from .interfaces import Actuator, Impact, valid_vector
 from .osc import ImpactMessage
 from .pipeline import Delivery, Pipeline, build_actuator, open_actuator
@@ -44,7 +44,7 @@ from .ratelog import RateLimitedLog
 from .registry import Registry
 from .safety import SafetyLimiter
 from .scene import Scene, load_scene, stand_in_for
-from .signal import Signal, valid_number, valid_velocity
+from .signal import MAX_AT_S, Signal, valid_number, valid_velocity
 from .conformance import limits_own_mix
 from .sumbound import SumBound, host_limiter
 from .spatial import Spatialiser
@@ -313,12 +313,15 @@ class Engine:
                             message.point, message.normal)
 
     def _submit(self, object, velocity, at, channel, received, point=None, normal=None) -> bool:
-        route = self._pipelines.get(object)
+        route = self._pipelines.get(object) if isinstance(object, str) else None
         if route is None:
-            raise EffectError(f"unknown object {object!r}; the scene has: {', '.join(self._pipelines)}", source=self.scene.source)
+            raise EffectError(f"unknown object {preview(object)}; the scene has: {', '.join(self._pipelines)}",
+                              source=self.scene.source)
         velocity = valid_velocity(velocity)
-        if at is not None:
-            at = valid_number(at, name="at")
+        if at is not None:  # seconds of simulation, or of the wall clock (an OSC bundle's timetag)
+            at = valid_number(at, name="at", minimum=-MAX_AT_S, maximum=MAX_AT_S)
+        if channel is not None and (isinstance(channel, bool) or not isinstance(channel, (int, np.integer))):
+            raise SignalError(f"channel must be a whole number, got {preview(channel)}")
         point = valid_vector(point, name="point")
         normal = valid_vector(normal, name="normal", unit=True)
         out = self._route[object]

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, ClassVar, Hashable, NamedTuple
 
 import numpy as np
 
-from .errors import SignalError
+from .errors import SignalError, preview
 from .signal import Signal, valid_number, valid_velocity
 
 if TYPE_CHECKING:
@@ -29,15 +29,16 @@ def valid_vector(value, *, name: str, unit: bool = False) -> tuple[float, float,
         return None
     try:
         x = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise SignalError(f"{name} must be three numbers, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise SignalError(f"{name} must be three numbers, got {preview(value)}") from None
     if x.shape != (3,) or not np.all(np.isfinite(x)):
-        raise SignalError(f"{name} must be three finite numbers, got {value!r}")
+        raise SignalError(f"{name} must be three finite numbers, got {preview(value)}")
     if unit:
-        norm = float(np.linalg.norm(x))
-        if norm < 1e-9:
+        big = float(np.max(np.abs(x)))  # scaled first: the norm of (1.7e308, ...) would overflow to inf
+        scaled = x / big if big > 0.0 else x
+        if big * float(np.linalg.norm(scaled)) < 1e-9:
             raise SignalError(f"{name} must not be zero")
-        x = x / norm
+        x = scaled / float(np.linalg.norm(scaled))
     return (float(x[0]), float(x[1]), float(x[2]))
 
 

@@ -51,6 +51,7 @@ def valid_number(value, *, name: str, minimum: float | None = None, maximum: flo
 
 
 MAX_VELOCITY_MPS = 100.0  # a falling object, a ball, a wheel: no impact here comes near it
+MAX_AT_S = 1e12  # an impact's time (s): well past any wall clock's, short of overflowing a file's frame count
 
 
 def valid_velocity(value) -> float:

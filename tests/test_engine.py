@@ -170,6 +170,15 @@ def test_bad_calls_raise_at_once(tmp_path, registry):
             engine.impact("brick", v)
     with pytest.raises(SignalError):
         engine.impact("brick", 3.0, at=float("inf"))
+    with pytest.raises(SignalError, match="at must be <= 1000000000000.0"):  # past any clock: a file's frames overflow
+        engine.impact("brick", 3.0, at=1e305)
+    with pytest.raises(EffectError, match=r"unknown object \[1\]"):  # not a TypeError (unhashable)
+        engine.impact([1], 3.0)
+    with pytest.raises(SignalError, match="point must be three numbers"):  # not an OverflowError
+        engine.impact("brick", 3.0, point=[10**400, 0, 0])
+    for channel in (True, [0], 0.0):
+        with pytest.raises(SignalError, match="channel must be a whole number"):
+            engine.impact("brick", 3.0, channel=channel)
     with pytest.raises(EffectError, match="plays on channel 0, not 3"):
         engine.impact("brick", 3.0, channel=3)
     assert engine.impact("brick", 3.0, channel=0)

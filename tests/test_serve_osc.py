@@ -87,6 +87,7 @@ def test_bundle_is_its_own_reason():
     ("sf", ["a", 100.5], "bad_value"),
     ("sfi", ["a", 1.0, -2], "bad_value"),
     ("sfid", ["a", 1.0, 0, float("nan")], "bad_value"),
+    ("sfid", ["a", 1.0, 0, 1e305], "bad_value"),  # once an OverflowError traceback in the WAV output
 ])
 def test_parse_impact_rejects(tags, args, reason):
     with pytest.raises(OscDecodeError) as err:

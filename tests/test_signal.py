@@ -60,3 +60,14 @@ def test_signal_rejects_bad_rate(rate, make):
 def test_velocity_gate(v):
     with pytest.raises(SignalError):
         valid_velocity(v)
+
+
+def test_a_normal_too_long_to_measure_directly_is_still_made_unit():
+    """(1.7e308,)*3 has a norm past the largest float: it came out (0, 0, 0) and failed as 'must not be zero'
+    after the OSC bridge had accepted it."""
+    from hapticfx.interfaces import valid_vector
+
+    assert valid_vector([1.7e308] * 3, name="normal", unit=True) == pytest.approx((3 ** -0.5,) * 3)
+    assert valid_vector([3e-9, 0.0, 0.0], name="normal", unit=True) == (1.0, 0.0, 0.0)
+    with pytest.raises(SignalError, match="must not be zero"):
+        valid_vector([1e-10, 0.0, 0.0], name="normal", unit=True)
