@@ -263,16 +263,16 @@ class TokenBucket:
         self.clock = clock
         self.last = clock()
 
-    def take(self) -> bool:
+    def take(self, n: int = 1) -> int:
+        """Take up to ``n`` tokens; how many were there (``n`` when unlimited)."""
         if self.rate_hz <= 0:
-            return True
+            return n
         now = self.clock()
         self.tokens = min(self.burst, self.tokens + (now - self.last) * self.rate_hz)
         self.last = now
-        if self.tokens >= 1.0:
-            self.tokens -= 1.0
-            return True
-        return False
+        taken = min(n, int(self.tokens))
+        self.tokens -= taken
+        return taken
 
 
 @dataclass
@@ -384,7 +384,9 @@ class OscBridge:
             messages = split_bundle(data)
         except OscDecodeError as exc:
             return [exc.reason]
-        return [self._message(m, at, received_at, sender) for m, at in messages]
+        allowed = 1 + self.bucket.take(len(messages) - 1)  # a token a message: a bundle is no way round the rate
+        return [self._message(m, at, received_at, sender) if i < allowed else "rate_limited"
+                for i, (m, at) in enumerate(messages)]
 
     def _message(self, data: bytes, at: float | None, received_at: float, sender: str) -> str | None:
         try:

@@ -191,6 +191,19 @@ def test_bridge_rate_limit_and_queue_full_are_counted():
     bridge.stop()
 
 
+def test_a_bundle_takes_a_token_for_each_of_its_messages():
+    """A bundle of 21 impacts took one token: a bundle flood got past the rate (22,000 messages a second
+    against 2,000) and held impacts back by seconds."""
+    rec = Recorder()
+    bridge = OscBridge(rec, {"brick"}, port=0, rate_hz=1.0, burst=5)
+    full = _bundle(1, *[osc(IMPACT_ADDRESS, "brick", (3.0, "f"))] * 21)
+    assert bridge.handle(full, 0.0) == "rate_limited"  # the first of its drops
+    stats = bridge.stats()
+    assert (stats["received"], stats["accepted"], stats["dropped"]["rate_limited"]) == (21, 5, 16)
+    assert len(rec.messages) == 5 and bridge.handle(full, 0.0) == "rate_limited"
+    bridge.stop()
+
+
 def test_port_in_use_is_a_clear_device_error():
     from hapticfx.errors import DeviceError
 
