@@ -349,3 +349,16 @@ def test_every_option_label_says_what_to_type():
             assert not MACHINE_LABEL.search(label), f"hapticfx {name} --help: {label!r}"
         labelled += sum(" " in label.split(", ")[-1] for label in labels)
     assert labelled > 100  # the walk reached the options that take a value
+
+
+def test_ctrl_c_while_the_command_line_starts_is_one_word_not_a_traceback(monkeypatch, capsys):
+    """Before click runs the command (the plugins being registered), Ctrl-C is a KeyboardInterrupt, not Abort."""
+    import hapticfx.cli as cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_app", interrupted)
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["plugins"])
+    assert exit_.value.code == 130 and capsys.readouterr().err.strip() == "aborted"

@@ -146,7 +146,7 @@ def main(argv: list[str] | None = None) -> None:
         code = 2
     except typer.Exit as exc:
         code = exc.exit_code
-    except typer.Abort:
+    except (typer.Abort, KeyboardInterrupt):  # Ctrl-C: click makes it Abort inside a command, not while starting
         typer.echo("aborted", err=True)
         code = 130
     except _click_errors() as exc:  # usage errors: click prints them in its own format
