@@ -94,7 +94,8 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
                         break
                     if stats_every:
                         echo(json.dumps({"bridge": bridge.stats(), "engine": engine.stats()}))
-                bridge_stats = bridge.stats()
+                bridge.stats()  # the kernel's drop count, read while the socket is open
+            bridge_stats = bridge.stats()  # the receiver has stopped: its counts and the engine's agree
             engine_stats = engine.close()
     return {"bridge": bridge_stats, "engine": engine_stats}
 
