@@ -204,9 +204,12 @@ class Pipeline:
     def render(self, impact: Impact | None = None, *, velocity: float | None = None, object: str | None = None) -> Delivery:
         """Model, shaping and safety limiter, without playing."""
         impact = impact or self._impact(velocity, object)
-        terms = self.model.terms(impact)
+        terms = _located(lambda: self.model.terms(impact), self.effect, "model")  # a plugin's error names the file
         if terms is None:
-            profile = self.model.render(impact)
+            profile = _located(lambda: self.model.render(impact), self.effect, "model")
+            if not isinstance(profile, Signal):
+                raise PluginError(f"model {self.effect.model.type!r} rendered a {type(profile).__name__}, not a "
+                                  "Signal", source=self.effect.source, key="model")
             shaped = shape(profile, self.actuator.spec, gain=self.gain, scale=self.scale)
         else:
             profile = terms.profile()

@@ -191,3 +191,38 @@ def test_close_is_bounded_and_plays_nothing_into_a_closed_actuator(tmp_path):
     time.sleep(0.7)  # the render ends: it must not be played into the closed actuator
     assert took < 3.0 and stats["close_errors"] == {"brick": "close() did not return within 1 s"}
     assert engine.stats()["outputs"]["brick"]["cancelled"] == 1
+
+
+@pytest.mark.parametrize("returns, words", [
+    (lambda: np.ones(100), "model 'fx-bad' rendered a ndarray, not a Signal"),
+    (lambda: None, "model 'fx-bad' rendered a NoneType, not a Signal"),
+    (lambda: __import__("hapticfx.signal", fromlist=["Signal"]).Signal(np.full(10, np.nan), 1000.0),
+     "model: Signal.samples has 10 non-finite value(s)"),
+])
+def test_a_models_bad_profile_is_one_error_naming_the_effect(tmp_path, returns, words):
+    from hapticfx.interfaces import Model
+
+    class Bad(Model):
+        name = "fx-bad"
+
+        def __init__(self, params, context):
+            pass
+
+        def render(self, impact):
+            return returns()
+
+    class P:
+        @hookspecs.hookimpl
+        def register_models(self, register):
+            register("fx-bad", Bad)
+
+    pm, infos = create_plugin_manager(entry_points=False)
+    pm.register(P(), name="fx-test-plugin")
+    path = tmp_path / "e.yaml"
+    path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-bad}\nactuator: {type: memory}\n")
+    from hapticfx.errors import HapticfxError
+
+    with Pipeline.from_effect(path, registry=Registry(pm, infos)) as pipeline:
+        with pytest.raises(HapticfxError) as err:
+            pipeline.impact(velocity=3.0)
+    assert str(err.value).startswith(f"{path}: ") and words in str(err.value)
