@@ -21,12 +21,17 @@ from hapticfx.registry import Registry, create_plugin_manager
 KE = "{type: kinetic-energy, ke_max_j: 0.1}"  # a loud square pulse: any impact reaches full scale
 
 
-def _registry(actuator_cls):
+def _registry(**plugins):
+    """A registry with the core's plugins and these: ``_registry(actuators={"fx-test": cls}, models={...})``."""
     class P:
-        @hookspecs.hookimpl
-        def register_actuators(self, register):
-            register("fx-test", actuator_cls)
+        pass
 
+    for kind, named in plugins.items():
+        def hook(self, register, named=named):
+            for name, cls in named.items():
+                register(name, cls)
+
+        setattr(P, f"register_{kind}", hookspecs.hookimpl(hook))
     pm, infos = create_plugin_manager(entry_points=False)
     pm.register(P(), name="fx-test-plugin")
     return Registry(pm, infos)
@@ -65,7 +70,7 @@ def test_a_spec_out_of_bounds_is_refused_naming_the_actuator(tmp_path, change, w
             super().__init__(params, context, spec=_spec(**change))
 
     with pytest.raises(PluginError) as err:
-        Pipeline.from_effect(_effect(tmp_path), registry=_registry(Odd))
+        Pipeline.from_effect(_effect(tmp_path), registry=_registry(actuators={"fx-test": Odd}))
     assert f"actuator 'fx-test': its spec has {words}" in str(err.value) and str(err.value).startswith(str(tmp_path))
 
 
@@ -80,7 +85,7 @@ def test_hard_limits_changed_in_open_are_refused(tmp_path):
             self.spec = _spec(rate_hz=16000.0, limits=SafetyLimits(peak=0.1, rms=0.05))
 
     with pytest.raises(PluginError, match="'fx-test' changed its hard limits when it opened"):
-        Pipeline.from_effect(_effect(tmp_path), registry=_registry(Changes)).open()
+        Pipeline.from_effect(_effect(tmp_path), registry=_registry(actuators={"fx-test": Changes})).open()
 
 
 def test_each_head_site_holds_its_own_channels_hard_limits(tmp_path):
@@ -99,7 +104,7 @@ def test_each_head_site_holds_its_own_channels_hard_limits(tmp_path):
                      "    crown: {position: [0.0, 0.0, 0.13], channel: 0}\n"
                      "    front: {position: [0.0, 0.1126, 0.065], channel: 1}\n"
                      "effects:\n  brick: {effect: e.yaml, actuator: helmet}\n")
-    engine = Engine(scene, registry=_registry(PerChannel))
+    engine = Engine(scene, registry=_registry(actuators={"fx-test": PerChannel}))
     engine.impact("brick", 5.0, point=[0.0, 0.1126, 0.065])
     engine.close()  # plays what is queued
     sites = {s.channel: s.actuator for s in engine._outputs["actuators.helmet"].sites}
@@ -116,18 +121,11 @@ def test_a_models_system_exit_is_one_failed_impact_and_the_engine_serves_on(tmp_
                 raise SystemExit(1)
             return super().terms(impact)
 
-    class P:
-        @hookspecs.hookimpl
-        def register_models(self, register):
-            register("fx-quits", Quits)
-
-    pm, infos = create_plugin_manager(entry_points=False)
-    pm.register(P(), name="fx-test-plugin")
     path = tmp_path / "e.yaml"
     path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-quits}\nactuator: {type: memory}\n")
     scene = tmp_path / "s.yaml"
     scene.write_text("name: s\neffects:\n  brick: e.yaml\n")
-    engine = Engine(scene, registry=Registry(pm, infos))
+    engine = Engine(scene, registry=_registry(models={"fx-quits": Quits}))
     engine.impact("brick", 5.0)
     engine.impact("brick", 3.0)
     stats = engine.close()  # plays what is queued
@@ -162,22 +160,11 @@ def test_close_is_bounded_and_plays_nothing_into_a_closed_actuator(tmp_path):
             assert not self.closing, "play() after close()"
             super().play(signal)
 
-    class P:
-        @hookspecs.hookimpl
-        def register_models(self, register):
-            register("fx-slow", Slow)
-
-        @hookspecs.hookimpl
-        def register_actuators(self, register):
-            register("fx-test", Hangs)
-
-    pm, infos = create_plugin_manager(entry_points=False)
-    pm.register(P(), name="fx-test-plugin")
     path = tmp_path / "e.yaml"
     path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-slow}\nactuator: {type: fx-test}\n")
     scene = tmp_path / "s.yaml"
     scene.write_text("name: s\neffects:\n  brick: e.yaml\nengine: {close_timeout_s: 0.2}\n")
-    engine = Engine(scene, registry=Registry(pm, infos))
+    engine = Engine(scene, registry=_registry(models={"fx-slow": Slow}, actuators={"fx-test": Hangs}))
     engine.impact("brick", 3.0)
     time.sleep(0.1)  # it is rendering
     started, closed = time.monotonic(), []
@@ -211,18 +198,11 @@ def test_a_models_bad_profile_is_one_error_naming_the_effect(tmp_path, returns, 
         def render(self, impact):
             return returns()
 
-    class P:
-        @hookspecs.hookimpl
-        def register_models(self, register):
-            register("fx-bad", Bad)
-
-    pm, infos = create_plugin_manager(entry_points=False)
-    pm.register(P(), name="fx-test-plugin")
     path = tmp_path / "e.yaml"
     path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-bad}\nactuator: {type: memory}\n")
     from hapticfx.errors import HapticfxError
 
-    with Pipeline.from_effect(path, registry=Registry(pm, infos)) as pipeline:
+    with Pipeline.from_effect(path, registry=_registry(models={"fx-bad": Bad})) as pipeline:
         with pytest.raises(HapticfxError) as err:
             pipeline.impact(velocity=3.0)
     assert str(err.value).startswith(f"{path}: ") and words in str(err.value)
