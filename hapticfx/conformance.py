@@ -36,6 +36,8 @@ log = logging.getLogger(__name__)
 
 # Limits tight enough that a flood of full-scale impacts must be limited on both counts.
 PROBE_LIMITS = SafetyLimits(peak=0.3, rms=0.2, source="conformance check")
+# every field other than the first's: a probe that limits to fixed values, not to the limits it is given, fails one
+PROBES = (PROBE_LIMITS, SafetyLimits(peak=0.2, rms=0.12, rms_window_s=0.02, source="conformance check"))
 PROBE_RATE_HZ = 8000.0
 PROBE_S = 1.0
 ROUNDING = 1e-6  # relative: a limit of 0.3 is 0.30000001 in the float32 a device takes
@@ -160,7 +162,7 @@ def limits_own_mix(actuator) -> bool:
             mark = fingerprint(cls)
             problems = _remembered(cls, mark) if mark is not None else None
             if problems is None:
-                problems = check_mix_limiter(cls)
+                problems = [p for limits in PROBES for p in check_mix_limiter(cls, limits=limits)]
                 if mark is not None:
                     _remember(cls, mark, problems)
             verdict = _verdicts[cls] = not problems

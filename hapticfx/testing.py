@@ -6,17 +6,19 @@ impacts and limits the sum itself; the host believes it only if this check passe
 
 from __future__ import annotations
 
-from .conformance import PROBE_LIMITS, PROBE_RATE_HZ, check_mix_limiter
+from .conformance import PROBE_RATE_HZ, PROBES, check_mix_limiter
 from .interfaces import SafetyLimits
 
 
-def assert_mix_limiter(actuator_cls, *, limits: SafetyLimits = PROBE_LIMITS, rate_hz: float = PROBE_RATE_HZ,
+def assert_mix_limiter(actuator_cls, *, limits: SafetyLimits | None = None, rate_hz: float = PROBE_RATE_HZ,
                        seeds=(0, 1, 2)) -> None:
     """AssertionError naming what failed unless ``actuator_cls.mix_probe`` keeps a flood of overlapping
-    impacts within ``limits`` (every sample, every RMS window), for each seed."""
-    for seed in seeds:
-        problems = check_mix_limiter(actuator_cls, limits=limits, rate_hz=rate_hz, seed=seed)
-        assert not problems, f"{actuator_cls.__name__} (seed {seed}): " + "; ".join(problems)
+    impacts within ``limits`` (every sample, every RMS window), for each seed; by default within each of
+    the limits the host checks with."""
+    for probe_limits in (PROBES if limits is None else (limits,)):
+        for seed in seeds:
+            problems = check_mix_limiter(actuator_cls, limits=probe_limits, rate_hz=rate_hz, seed=seed)
+            assert not problems, f"{actuator_cls.__name__} (seed {seed}): " + "; ".join(problems)
 
 
 __all__ = ["assert_mix_limiter", "check_mix_limiter"]

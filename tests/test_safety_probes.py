@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hapticfx.conformance import check_mix_limiter
+from hapticfx.conformance import PROBE_LIMITS, PROBES, check_mix_limiter
 from hapticfx.engine import Engine
 from hapticfx.fuzz import probe
 from hapticfx.fuzz.thirdparty import LyingMixer
@@ -83,8 +83,18 @@ def test_a_mixer_that_does_not_limit_fails_the_conformance_check_and_one_that_do
                     return inner.output(frames)
             return Probe()
 
+    class Fixed(Unlimited):
+        """Limits its sum to the first probe's limits, whatever it is given."""
+
+        @classmethod
+        def mix_probe(cls, limits, rate_hz):
+            return Bounded.mix_probe(PROBE_LIMITS, rate_hz)
+
     problems = check_mix_limiter(Unlimited)
     assert any("over the limit" in p for p in problems) and any("windows" in p for p in problems)
+    assert not check_mix_limiter(Fixed) and check_mix_limiter(Fixed, limits=PROBES[1])
+    with pytest.raises(AssertionError, match="Fixed"):
+        assert_mix_limiter(Fixed, seeds=(0,))
     assert "has no mix_probe" in check_mix_limiter(LyingMixer)[0]
     assert_mix_limiter(Bounded)
     with pytest.raises(AssertionError, match="Unlimited"):
@@ -149,16 +159,16 @@ def test_the_hosts_verdict_is_computed_once_per_version_of_the_code(tmp_path, mo
     monkeypatch.setenv("HAPTICFX_CACHE", str(tmp_path))
     calls = []
     real = conformance.check_mix_limiter
-    monkeypatch.setattr(conformance, "check_mix_limiter", lambda cls: calls.append(cls) or real(cls))
+    monkeypatch.setattr(conformance, "check_mix_limiter", lambda cls, **kw: calls.append(cls) or real(cls, **kw))
     actuator = WavActuator.__new__(WavActuator)
     for _ in range(2):
         monkeypatch.setattr(conformance, "_verdicts", {})  # a new process
         assert conformance.limits_own_mix(actuator)
     owner = WavActuator.__mro__[1]  # the class whose mix_probe it uses (checked once for WAV and CSV)
-    assert calls == [owner]  # the second process read the verdict
+    assert calls == [owner] * len(conformance.PROBES)  # under each probe's limits; the second process read them
     monkeypatch.setattr(conformance, "fingerprint", lambda cls: "other code")
     monkeypatch.setattr(conformance, "_verdicts", {})
-    assert conformance.limits_own_mix(actuator) and calls == [owner, owner]
+    assert conformance.limits_own_mix(actuator) and calls == [owner] * 2 * len(conformance.PROBES)
 
 
 def test_a_class_without_a_source_file_is_checked_and_not_remembered(tmp_path, monkeypatch):
