@@ -18,9 +18,13 @@ def user_path(text) -> Path:
         return Path(text)
 
 
+def _nearest_existing(path: Path) -> Path:
+    return next(p for p in (path, *path.parents) if p.exists())
+
+
 def existing_folder(path: Path) -> Path:
     """The nearest of ``path`` and the folders above it that exists: a folder, else an error naming the file."""
-    there = next(p for p in (path, *path.parents) if p.exists())
+    there = _nearest_existing(Path(path))
     if not there.is_dir():
         raise HapticfxError(f"{there}: not a folder")
     return there
@@ -60,9 +64,7 @@ def temporary_beside(path: Path, *, folder: bool = False) -> Path:
 def check_writable(folder: str | os.PathLike) -> None:
     """Raise :class:`OSError` (the system's reason) unless a file can be made in ``folder``, or, where it does
     not exist yet, in the nearest folder above it, where it would be made. The probe file is gone at once."""
-    folder = Path(folder)
-    existing = next(p for p in (folder, *folder.parents) if p.exists())
-    tempfile.TemporaryFile(dir=existing).close()
+    tempfile.TemporaryFile(dir=_nearest_existing(Path(folder))).close()
 
 
 @contextmanager

@@ -563,11 +563,11 @@ class Engine:
                                     daemon=True) for out in self._outputs.values()]
         for t in closers:
             t.start()
-        deadline = time.monotonic() + max(timeout, 1.0)  # as long again for the actuators' close()
+        waited = max(timeout, 1.0)  # as long again for the actuators' close()
+        deadline = time.monotonic() + waited
         for t, out in zip(closers, self._outputs.values()):
             t.join(max(0.0, deadline - time.monotonic()))
             if t.is_alive():
-                waited = max(timeout, 1.0)
                 log.warning("closing %s did not return within %.1f s; left to finish on its own", out.name, waited)
                 with self._lock:
                     self._close_errors[out.name] = f"close() did not return within {waited:g} s"

@@ -75,10 +75,14 @@ def _located(build, effect: Effect, key: str):
 MAX_ACTUATOR_RATE_HZ = 1e6
 
 
+def _who(actuator: Actuator) -> str:
+    return f"actuator {getattr(actuator, 'name', type(actuator).__name__)!r}"
+
+
 def check_spec(actuator: Actuator) -> None:
     """Refuse an actuator whose spec the core cannot trust: a rate, range, band or gain out of bounds, or hard
     limits that are not the core's own :class:`SafetyLimits` (a subclass may skip their checks)."""
-    spec, who = actuator.spec, f"actuator {getattr(actuator, 'name', type(actuator).__name__)!r}"
+    spec, who = actuator.spec, _who(actuator)
 
     def real(v, lo, hi) -> bool:
         return isinstance(v, (int, float)) and not isinstance(v, bool) and lo <= v <= hi
@@ -107,8 +111,8 @@ def open_actuator(actuator: Actuator) -> None:
     try:
         check_spec(actuator)
         if actuator.spec.limits != limits:
-            raise PluginError(f"actuator {getattr(actuator, 'name', type(actuator).__name__)!r} changed its hard "
-                              "limits when it opened; an actuator declares them before")
+            raise PluginError(f"{_who(actuator)} changed its hard limits when it opened; an actuator declares "
+                              "them before")
     except PluginError:
         actuator.close()
         raise
