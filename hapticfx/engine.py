@@ -407,7 +407,7 @@ class Engine:
         else:
             if out.limiter is not None:
                 before = out.limiter.report().total
-                signal = Signal.adopt(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)
+                signal = Signal(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)  # see render()
                 limited = limited or out.limiter.report().total > before
             _play_on(out.actuator, signal, job)
         acted = set(delivery.limiter.acted).union(*(r.acted for r in out.reports())) if limited else set()
@@ -441,7 +441,7 @@ class Engine:
                 before = site.limiter.report().total
                 per_site[k] = site.limiter.process(per_site[k], at_s=now)
                 limited = limited or site.limiter.report().total > before
-            _play_on(site.actuator, Signal.adopt(per_site[k], rate), job)
+            _play_on(site.actuator, Signal(per_site[k], rate), job)  # a copy: no site can write into another's row
         return Signal.adopt(per_site, rate), limited
 
     def _failed(self, out: _Output, job: _Job, exc: BaseException) -> None:

@@ -59,9 +59,21 @@ def valid_velocity(value) -> float:
     return valid_number(value, name="velocity", minimum=0.0, maximum=MAX_VELOCITY_MPS)
 
 
+def _sealed(arr: np.ndarray) -> np.ndarray:
+    """A copy of ``arr`` that nothing can write: its memory is a ``bytes`` object, so numpy refuses
+    ``setflags(write=True)`` on it and on every view of it (as it does not for an array that owns its memory,
+    or one whose base is writable)."""
+    return np.frombuffer(arr.tobytes(), dtype=np.float64).reshape(arr.shape)
+
+
 @dataclass(frozen=True)
 class Signal:
-    """Samples on a uniform time grid: float64, time on the last axis, rate in Hz."""
+    """Samples on a uniform time grid: float64, time on the last axis, rate in Hz.
+
+    ``Signal(samples, rate)`` holds a copy that no one can write, not even through ``setflags``: what the
+    core hands to plugins (an actuator's input, a head site's row) is made this way, so that no plugin can
+    change what another, the engine's record or a caller receives.
+    """
 
     samples: np.ndarray
     rate_hz: float
@@ -71,10 +83,11 @@ class Signal:
 
     @classmethod
     def adopt(cls, samples: np.ndarray, rate_hz: float) -> "Signal":
-        """A Signal over ``samples`` itself, not a copy (validated alike; the array becomes read-only).
+        """A Signal over ``samples`` itself, not a copy (validated alike; the array is flagged read-only).
 
-        For an array just made that nothing else holds: a render's 48 kHz output
-        is not copied once more on its way out.
+        For an array just made that nothing else holds, on its way between the core's own stages: a
+        render's 48 kHz output is not copied once more there. The flag can be set back by whoever holds the
+        array, so what goes to a plugin is a ``Signal(...)``.
         """
         signal = object.__new__(cls)
         signal._hold(samples, rate_hz, copy=False)
@@ -86,8 +99,9 @@ class Signal:
         if rate <= 0:
             raise SignalError(f"Signal.rate_hz must be > 0, got {rate}")
         if copy:
-            arr = np.array(arr, dtype=np.float64, copy=True)
-        arr.setflags(write=False)
+            arr = _sealed(arr)
+        else:
+            arr.setflags(write=False)
         object.__setattr__(self, "samples", arr)
         object.__setattr__(self, "rate_hz", rate)
 

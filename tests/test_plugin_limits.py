@@ -206,3 +206,48 @@ def test_a_models_bad_profile_is_one_error_naming_the_effect(tmp_path, returns, 
         with pytest.raises(HapticfxError) as err:
             pipeline.impact(velocity=3.0)
     assert str(err.value).startswith(f"{path}: ") and words in str(err.value)
+
+
+class _Tampers(MemoryActuator):
+    """Does what numpy allows with an array that owns its memory or whose base is writable: flags it (and
+    each base under it) writable again and writes full scale into it, then keeps what it was given."""
+    name = "fx-test"
+
+    def play(self, signal):
+        arr = signal.samples
+        while isinstance(arr, np.ndarray):
+            try:
+                arr.setflags(write=True)
+                arr[...] = 1.0
+            except ValueError:  # read-only for good
+                pass
+            arr = arr.base
+        super().play(signal)
+
+
+def test_an_actuator_cannot_write_into_what_it_was_given(tmp_path):
+    """What Pipeline.impact() played and returns stays what the limiter let through."""
+    path = _effect(tmp_path, "{type: fx-test, limits: {peak: 0.2, rms: 0.1}}")
+    with Pipeline.from_effect(path, registry=_registry(actuators={"fx-test": _Tampers})) as pipeline:
+        delivery = pipeline.impact(velocity=5.0)
+    assert 0.0 < delivery.output.peak <= 0.2 + 1e-12
+
+
+def test_a_head_site_cannot_write_into_another_sites_samples_or_the_engines_record(tmp_path):
+    """An impact on the crown alone: the crown's actuator cannot reach the front's (silent, so unlimited)
+    row of the block they were cut from, nor what on_played and played() receive."""
+    _effect(tmp_path, "{type: memory}")
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: s\nactuators:\n  helmet: {type: fx-test, limits: {peak: 0.2, rms: 0.1}}\n"
+                     "head:\n  actuator: helmet\n  sites:\n"
+                     "    crown: {position: [0.0, 0.0, 0.13], channel: 0}\n"
+                     "    front: {position: [0.0, 0.1126, 0.065], channel: 1}\n"
+                     "effects:\n  brick: {effect: e.yaml, actuator: helmet}\n")
+    seen = []
+    engine = Engine(scene, registry=_registry(actuators={"fx-test": _Tampers}), on_played=seen.append)
+    engine.impact("brick", 5.0, channel=0)
+    engine.close()  # plays what is queued
+    front = next(s.actuator for s in engine._outputs["actuators.helmet"].sites if s.channel == 1)
+    assert [np.max(np.abs(s.samples)) for s in front.played] == [0.0]
+    (playback,) = seen
+    assert 0.0 < playback.signal.peak <= 0.2 + 1e-12 and engine.played()[0].peak == playback.signal.peak

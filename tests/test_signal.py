@@ -32,6 +32,8 @@ def test_signal_is_frozen_and_copied():
     assert s.samples[0] == 0
     with pytest.raises(ValueError):
         s.samples[0] = 1
+    with pytest.raises(ValueError):  # nor by whoever is handed it, setting the flag back
+        s.samples.setflags(write=True)
     assert s.duration_s == pytest.approx(0.004)
 
 
