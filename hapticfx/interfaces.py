@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, ClassVar, Hashable, NamedTuple
 import numpy as np
 
 from .errors import SignalError, preview
-from .signal import Signal, valid_number, valid_velocity
+from .signal import Signal, valid_number, valid_rate, valid_velocity
 
 if TYPE_CHECKING:
     from .data.bank import ProfileBank
@@ -107,6 +107,7 @@ class Terms:
     items: tuple[Term, ...]
 
     def __post_init__(self):
+        object.__setattr__(self, "rate_hz", valid_rate(self.rate_hz, name="Terms.rate_hz"))
         if not self.items:
             raise SignalError("a profile needs at least one term")
         shape = self.items[0].samples.shape
@@ -114,6 +115,10 @@ class Terms:
             if t.samples.ndim != 1 or t.samples.shape != shape:
                 raise SignalError(f"the terms of one profile are 1D and of one length; got {shape} and {t.samples.shape}")
             valid_number(t.weight, name=f"weight of term {t.key!r}")
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.items[0].samples.shape[0])
 
     def profile(self) -> Signal:
         """The profile itself: the weighted sum of the atoms."""
@@ -210,7 +215,8 @@ class Model(abc.ABC):
 
     @abc.abstractmethod
     def render(self, impact: Impact) -> Signal:
-        """Return the impact profile for ``impact``."""
+        """Return the impact profile for ``impact``: at most :data:`~hapticfx.signal.MAX_PROFILE_S` long, and of
+        at most :data:`~hapticfx.signal.MAX_PROFILE_SAMPLES` samples (the pipeline refuses a longer one)."""
 
     def terms(self, impact: Impact) -> Terms | None:
         """``render``'s profile as :class:`Terms` of fixed atoms, or None (the default) when it is not such a sum."""

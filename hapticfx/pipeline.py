@@ -25,7 +25,7 @@ from .safety import LimiterReport, SafetyLimiter
 from .conformance import limits_own_mix
 from .sumbound import host_limiter
 from .shaping import ShapedAtoms, shape
-from .signal import Signal, valid_velocity
+from .signal import MAX_PROFILE_S, MAX_PROFILE_SAMPLES, Signal, valid_velocity
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,16 @@ def _located(build, effect: Effect, key: str):
         if exc.source:
             raise
         raise type(exc)(str(exc), source=effect.source, key=key) from None
+
+
+def _check_length(effect: Effect, rate_hz: float, n_samples: int) -> None:
+    """Refuse a model's profile longer than :data:`~hapticfx.signal.MAX_PROFILE_S` or of more samples than
+    :data:`~hapticfx.signal.MAX_PROFILE_SAMPLES`, before it is shaped: at the actuator's rate it only grows
+    (600 s at 1 kHz played as 220 MiB at 48 kHz)."""
+    if n_samples > MAX_PROFILE_SAMPLES or n_samples > MAX_PROFILE_S * rate_hz:
+        raise PluginError(f"model {effect.model.type!r} rendered a profile of {n_samples / rate_hz:.6g} s "
+                          f"({n_samples} samples at {rate_hz:g} Hz); a profile is at most {MAX_PROFILE_S:g} s and "
+                          f"{MAX_PROFILE_SAMPLES} samples", source=effect.source, key="model")
 
 
 MAX_ACTUATOR_RATE_HZ = 1e6
@@ -187,6 +197,7 @@ class Pipeline:
         first impacts cost what every later one does."""
         atoms = self.model.atoms()
         if atoms is not None:
+            _check_length(self.effect, atoms.rate_hz, atoms.n_samples)
             self.atoms.warm(atoms, self.actuator.spec)
 
     def close(self) -> None:
@@ -214,8 +225,10 @@ class Pipeline:
             if not isinstance(profile, Signal):
                 raise PluginError(f"model {self.effect.model.type!r} rendered a {type(profile).__name__}, not a "
                                   "Signal", source=self.effect.source, key="model")
+            _check_length(self.effect, profile.rate_hz, profile.n_samples)
             shaped = shape(profile, self.actuator.spec, gain=self.gain, scale=self.scale)
         else:
+            _check_length(self.effect, terms.rate_hz, terms.n_samples)
             profile = terms.profile()
             shaped = self.atoms.shape(terms, self.actuator.spec)
         with self._lock:

@@ -50,8 +50,20 @@ def valid_number(value, *, name: str, minimum: float | None = None, maximum: flo
     return v
 
 
+def valid_rate(value, *, name: str) -> float:
+    """A sample rate in Hz: a finite number above 0, as a float."""
+    rate = valid_number(value, name=name)
+    if rate <= 0:
+        raise SignalError(f"{name} must be > 0, got {rate}")
+    return rate
+
+
 MAX_VELOCITY_MPS = 100.0  # a falling object, a ball, a wheel: no impact here comes near it
 MAX_AT_S = 1e12  # an impact's time (s): well past any wall clock's, short of overflowing a file's frame count
+# One impact's profile, as a model renders it: at most as long as the longest haptic file hapticfx renders, and
+# as many samples as that at 192 kHz, the highest rate a built-in model renders at (a haptic file's).
+MAX_PROFILE_S = 120.0
+MAX_PROFILE_SAMPLES = int(MAX_PROFILE_S * 192_000)
 
 
 def valid_velocity(value) -> float:
@@ -95,9 +107,7 @@ class Signal:
 
     def _hold(self, samples, rate_hz, *, copy: bool) -> None:
         arr = valid_signal(samples, name="Signal.samples", ndim=(1, 2))
-        rate = valid_number(rate_hz, name="Signal.rate_hz")
-        if rate <= 0:
-            raise SignalError(f"Signal.rate_hz must be > 0, got {rate}")
+        rate = valid_rate(rate_hz, name="Signal.rate_hz")
         if copy:
             arr = _sealed(arr)
         else:

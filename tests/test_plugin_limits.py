@@ -251,3 +251,37 @@ def test_a_head_site_cannot_write_into_another_sites_samples_or_the_engines_reco
     assert [np.max(np.abs(s.samples)) for s in front.played] == [0.0]
     (playback,) = seen
     assert 0.0 < playback.signal.peak <= 0.2 + 1e-12 and engine.played()[0].peak == playback.signal.peak
+
+
+@pytest.mark.parametrize("way", ["render", "terms", "atoms"])
+def test_a_models_overlong_profile_is_one_error_naming_the_effect(tmp_path, way):
+    """Refused before it is shaped, where it would grow 48 times (1 kHz to 48 kHz): rendered, as terms, or as
+    the atoms shaped when the effect opens."""
+    from hapticfx.interfaces import Model, Term, Terms
+    from hapticfx.signal import Signal
+
+    long = Terms(1000.0, (Term("long", 1.0, np.full(130_000, 0.01)),))  # 130 s at 1 kHz
+
+    class Long(Model):
+        name = "fx-long"
+
+        def __init__(self, params, context):
+            pass
+
+        def render(self, impact):
+            return long.profile()
+
+        def terms(self, impact):
+            return long if way == "terms" else None
+
+        def atoms(self):
+            return long if way == "atoms" else None
+
+    path = tmp_path / "e.yaml"
+    path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-long}\nactuator: {type: memory}\n")
+    pipeline = Pipeline.from_effect(path, registry=_registry(models={"fx-long": Long}))
+    with pytest.raises(PluginError) as err:
+        with pipeline:
+            pipeline.impact(velocity=3.0)
+    assert str(err.value) == (f"{path}: model: model 'fx-long' rendered a profile of 130 s (130000 samples at "
+                              "1000 Hz); a profile is at most 120 s and 23040000 samples")

@@ -12,8 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..signal import MAX_PROFILE_S
+
 DEFAULT_FREQUENCY = 0.5  # the .haptic spec's default when the frequency envelope is empty
-MAX_DURATION_S = 120.0  # what one file may ask hapticfx to render (AHAP's continuous events end at 30 s)
+MAX_DURATION_S = MAX_PROFILE_S  # what one file may ask hapticfx to render: a profile (AHAP's continuous events: 30 s)
 
 
 def grid_size(duration_s: float, rate_hz: float, source: str) -> int:
