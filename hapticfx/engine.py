@@ -279,7 +279,7 @@ class Engine:
             for out in self._outputs.values():
                 for actuator in out.actuators:  # what an actuator that limits its own mix holds on it
                     actuator.limits = out.limits.strictest(actuator.spec.limits)
-                    open_actuator(actuator)
+                    open_actuator(actuator, source=self.scene.source, key=out.name)
                     opened.append(actuator)
                 out.arm()
                 for pipeline in out.pipelines:  # shape and limit at the rate the device agreed on

@@ -113,11 +113,18 @@ def check_spec(actuator: Actuator) -> None:
         raise PluginError(f"{who}: its spec has {bad[0]}")
 
 
-def open_actuator(actuator: Actuator) -> None:
+def open_actuator(actuator: Actuator, *, source: str | None = None, key: str | None = None) -> None:
     """``actuator.open()``, then its spec checked again: it may agree on another rate with the device, but
-    its hard limits are what the limiters were built with, and they stay."""
+    its hard limits are what the limiters were built with, and they stay. What ``open()`` raises that is not a
+    HapticfxError (a plugin's bug) is one DeviceError naming ``source``, ``key`` and the actuator."""
     limits = actuator.spec.limits
-    actuator.open()
+    try:
+        actuator.open()
+    except HapticfxError:
+        raise
+    except Exception as exc:
+        raise DeviceError(f"{_who(actuator)} failed to open: {type(exc).__name__}: {exc}", source=source,
+                          key=key) from exc
     try:
         check_spec(actuator)
         if actuator.spec.limits != limits:
@@ -177,7 +184,7 @@ class Pipeline:
     def open(self) -> "Pipeline":
         if not self._opened:
             limits_own_mix(self.actuator)  # the conformance verdict before the device plays (see adopt)
-            open_actuator(self.actuator)
+            open_actuator(self.actuator, source=self.effect.source, key="actuator")
             self._opened = True
             self.adopt(self.actuator)
         return self

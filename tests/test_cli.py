@@ -112,6 +112,37 @@ def test_play_with_explicit_absent_device_is_an_error(write_effect, deviceless_p
     assert r.returncode == 2 and r.stderr.strip() == "hapticfx: error: no audio output device found"
 
 
+def test_an_actuator_whose_open_raises_is_one_line_from_serve_and_play(tmp_path):
+    """A plugin's bug in open() (not a HapticfxError), in an Engine (serve) or a pipeline (play): one line
+    naming the file, the output and the actuator, exit 2, no traceback."""
+    site = tmp_path / "site"
+    site.mkdir()
+    fake_distribution(site, dist="hfx-broken", version="0.1", entry_point="broken", module="hfx_broken", source='''
+        from hapticfx.hookspecs import hookimpl
+        from hapticfx.actuators.virtual import MemoryActuator
+
+        class Broken(MemoryActuator):
+            """An actuator whose open() has a bug."""
+            name = "broken"
+            def open(self):
+                raise RuntimeError("port handle is None")
+
+        @hookimpl
+        def register_actuators(register):
+            register("broken", Broken)
+    ''')
+    env = {"PYTHONPATH": f"{site}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "HAPTICFX_PLUGINS": "broken"}
+    effect = tmp_path / "e.yaml"
+    effect.write_text(KE % "broken")
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: s\neffects:\n  brick: e.yaml\n")
+    for args, where in ((("serve", scene, "--port", "0", "--duration", "0.1"), f"{scene}: brick"),
+                        (("play", effect), f"{effect}: actuator")):
+        r = hfx(*args, env=env)
+        assert (r.returncode, r.stderr) == (2, f"hapticfx: error: {where}: actuator 'broken' failed to open: "
+                                               "RuntimeError: port handle is None\n"), args
+
+
 def test_plugins_lists_builtins():
     r = hfx("plugins")
     assert r.returncode == 0

@@ -285,3 +285,35 @@ def test_a_models_overlong_profile_is_one_error_naming_the_effect(tmp_path, way)
             pipeline.impact(velocity=3.0)
     assert str(err.value) == (f"{path}: model: model 'fx-long' rendered a profile of 130 s (130000 samples at "
                               "1000 Hz); a profile is at most 120 s and 23040000 samples")
+
+
+def test_an_actuator_whose_open_raises_is_one_error_naming_the_output_and_the_opened_are_closed(tmp_path):
+    """A plugin's bug in open() (not a HapticfxError) is a DeviceError naming the scene, the output and the
+    actuator; the output opened before it is closed again."""
+    from hapticfx.errors import DeviceError
+
+    calls = []
+
+    class Tracked(MemoryActuator):
+        name = "fx-tracked"
+
+        def open(self):
+            calls.append("open")
+
+        def close(self):
+            calls.append("close")
+
+    class Broken(MemoryActuator):
+        name = "fx-test"
+
+        def open(self):
+            raise RuntimeError("port handle is None")
+
+    _effect(tmp_path)
+    (tmp_path / "t.yaml").write_text(f"name: t\nobject: concrete-brick\nmodel: {KE}\nactuator: {{type: fx-tracked}}\n")
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: s\neffects:\n  first: t.yaml\n  brick: e.yaml\n")
+    with pytest.raises(DeviceError) as err:
+        Engine(scene, registry=_registry(actuators={"fx-test": Broken, "fx-tracked": Tracked}))
+    assert str(err.value) == f"{scene}: brick: actuator 'fx-test' failed to open: RuntimeError: port handle is None"
+    assert calls == ["open", "close"]
