@@ -179,10 +179,11 @@ class Effect:
     own_limits: tuple[tuple[LimitParams, str], ...] = ()
     actuator_at: tuple[str, str] = ()  # (file, key) of the actuator section, where not the effect file's (a scene's)
 
-    def context(self, *, device=None) -> BuildContext:
+    def context(self, *, device=None, registry: Registry | None = None) -> BuildContext:
         return BuildContext(
             source=self.source, base_dir=self.base_dir, object_id=self.object_id, object_info=self.object_info,
             device=self.actuator.device if device is None else device, channel=self.actuator.channel,
+            registry=registry,
         )
 
 
@@ -305,19 +306,20 @@ def load_effect(path: str | Path) -> Effect:
 
 @dataclass(frozen=True)
 class Plan:
-    """What building an effect will load: plugin classes and their parsed parameters."""
+    """What building an effect will load: plugin classes and their parsed parameters, from ``registry``."""
 
     effect: Effect
     model_cls: type
     model_params: Any
     actuator_cls: type
     actuator_params: Any
+    registry: Registry
 
-    def model_registration(self, registry: Registry):
-        return registry.get("model", self.effect.model.type)
+    def model_registration(self):
+        return self.registry.get("model", self.effect.model.type)
 
-    def actuator_registration(self, registry: Registry):
-        return registry.get("actuator", self.effect.actuator.type)
+    def actuator_registration(self):
+        return self.registry.get("actuator", self.effect.actuator.type)
 
 
 def _resolve(registry: Registry, kind: str, name: str, *, source: str, key: str) -> type:
@@ -346,7 +348,7 @@ def check_effect(effect: Effect, *, registry: Registry | None = None) -> Plan:
     model_params = parse_params(params_of(model_cls), effect.model.options, source=src, key="model")
     actuator_params = parse_params(params_of(actuator_cls), effect.actuator.options, source=act_src, key=act_key,
                                    also=ACTUATOR_CORE_KEYS)
-    return Plan(effect, model_cls, model_params, actuator_cls, actuator_params)
+    return Plan(effect, model_cls, model_params, actuator_cls, actuator_params, registry)
 
 
 def effective_limits(hard: SafetyLimits, effect: Effect) -> SafetyLimits:

@@ -19,10 +19,14 @@ from typing import Any, Literal, get_args, get_origin
 from .errors import EffectError, preview
 from .objects import ObjectInfo
 
+if typing.TYPE_CHECKING:
+    from .registry import Registry
+
 
 @dataclass(frozen=True)
 class BuildContext:
-    """What a model or actuator may need to know about the effect building it."""
+    """What a model or actuator may need to know about the effect building it; ``registry``: the one the
+    effect is built from (None: the process-wide one), where a model finds its reducers and interpolators."""
 
     source: str = "<python>"
     base_dir: Path = Path(".")
@@ -30,6 +34,13 @@ class BuildContext:
     object_info: ObjectInfo | None = None
     device: str | int | None = None
     channel: int | None = None
+    registry: Registry | None = None
+
+    def components(self) -> Registry:
+        """``registry``, or the process-wide one where none was given."""
+        from .registry import get_registry
+
+        return self.registry or get_registry()
 
 
 @dataclass(frozen=True)

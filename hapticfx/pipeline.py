@@ -20,7 +20,7 @@ from .effect import Effect, Plan, check_effect, effective_limits, load_effect
 from .errors import DeviceError, EffectError, HapticfxError, PluginError
 from .interfaces import Actuator, ActuatorSpec, Impact, Model, SafetyLimits
 from .params import BuildContext
-from .registry import Registry, get_registry
+from .registry import Registry
 from .safety import LimiterReport, SafetyLimiter
 from .conformance import limits_own_mix
 from .sumbound import host_limiter
@@ -138,7 +138,7 @@ def open_actuator(actuator: Actuator, *, source: str | None = None, key: str | N
 def build_actuator(plan: Plan, effect: Effect, device: str | int | None) -> Actuator:
     """The (unopened) actuator of ``effect``'s section, or the virtual one ``device`` names in its place."""
     virtual = stand_in(device)
-    context = effect.context(device=None if virtual else device)
+    context = effect.context(device=None if virtual else device, registry=plan.registry)
     device_actuator: Actuator = _located(lambda: plan.actuator_cls(plan.actuator_params, context), effect, "actuator")
     _located(lambda: check_spec(device_actuator), effect, "actuator")
     if not virtual:
@@ -154,8 +154,8 @@ class Pipeline:
 
     def __init__(self, effect: Effect, *, device: str | int | None = None, registry: Registry | None = None):
         self.effect = effect
-        self.plan: Plan = check_effect(effect, registry=registry or get_registry())
-        context = effect.context(device=None if stand_in(device) else device)
+        self.plan: Plan = check_effect(effect, registry=registry)
+        context = effect.context(device=None if stand_in(device) else device, registry=self.plan.registry)
         self.model: Model = _located(lambda: self.plan.model_cls(self.plan.model_params, context), effect, "model")
         self.actuator: Actuator = build_actuator(self.plan, effect, device)
         spec = self.actuator.spec
@@ -265,8 +265,7 @@ class Pipeline:
 
     def describe(self) -> dict:
         """What this pipeline loaded, for ``hapticfx info``."""
-        reg = get_registry()
-        m, a = self.plan.model_registration(reg), self.plan.actuator_registration(reg)
+        m, a = self.plan.model_registration(), self.plan.actuator_registration()
         spec = self.actuator.spec
         return {
             "effect": self.effect.name, "file": self.effect.source, "object": self.effect.object_id,

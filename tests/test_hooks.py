@@ -280,3 +280,54 @@ def test_outside_a_source_tree_the_hint_says_where_the_plugin_is(monkeypatch, tm
     monkeypatch.setattr(registry, "__file__", str(tmp_path / "site-packages" / "hapticfx" / "registry.py"))
     assert registry.install_hint("hapticfx-solenoid") == ("pip install ./plugins/hapticfx-solenoid in hapticfx's "
                                                           "source tree (it is not on PyPI)")
+
+
+@pytest.mark.parametrize("model, used, plugin", [
+    ("{type: data-driven, interpolator: fx-half}", {"fx-half"}, "hapticfx.builtins.core"),
+    ("{type: contact, reducer: fx-norm, table: false}", {"fx-norm"}, "hapticfx.builtins.physics"),
+    ("{type: fx-kinetic}", set(), "test-plugin"),
+])
+def test_a_pipeline_builds_from_the_registry_it_is_given(tmp_path, model, used, plugin):
+    """An interpolator, a reducer or a model that only the given registry holds is found and used, and
+    describe() names the model's plugin from it."""
+    import numpy as np
+
+    from hapticfx.interfaces import Interpolator, Reducer
+    from hapticfx.models.kinetic import KineticEnergyModel
+    from hapticfx.pipeline import Pipeline
+
+    calls = set()
+
+    class Half(Interpolator):
+        name = "fx-half"
+
+        def interpolate(self, lower, upper, velocity):
+            calls.add(self.name)
+            return 0.5 * (lower.samples + upper.samples)
+
+    class Norm(Reducer):
+        name = "fx-norm"
+
+        def reduce(self, xyz):
+            calls.add(self.name)
+            return np.linalg.norm(xyz, axis=-1)
+
+    class P:
+        @hookspecs.hookimpl
+        def register_interpolators(self, register):
+            register("fx-half", Half)
+
+        @hookspecs.hookimpl
+        def register_reducers(self, register):
+            register("fx-norm", Norm)
+
+        @hookspecs.hookimpl
+        def register_models(self, register):
+            register("fx-kinetic", KineticEnergyModel)
+
+    path = tmp_path / "e.yaml"
+    path.write_text(f"name: e\nobject: concrete-brick\nmodel: {model}\nactuator: {{type: memory}}\n")
+    with Pipeline.from_effect(path, registry=_registry_with(P())) as pipeline:
+        pipeline.impact(velocity=3.3)  # between two recorded velocities
+        info = pipeline.describe()
+    assert calls == used and info["model"]["plugin"].startswith(f"{plugin} (")

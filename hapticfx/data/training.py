@@ -2,15 +2,22 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import DatasetError
 from ..interfaces import TrainingData
 from .dataset import Dataset
 
+if TYPE_CHECKING:
+    from ..registry import Registry
 
-def recorded_drops(dataset: Dataset, object_id: str, reducer: str) -> tuple[np.ndarray, np.ndarray] | None:
-    """Every drop of one object, preprocessed and reduced like its bank: ``velocities (V,)``, ``(V, D, N)``.
+
+def recorded_drops(dataset: Dataset, object_id: str, reducer: str, *,
+                   registry: Registry | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """Every drop of one object, preprocessed and reduced like its bank: ``velocities (V,)``, ``(V, D, N)``;
+    the reducer from ``registry`` (default: the process-wide one).
 
     None when the dataset keeps no raw recordings of the object (a bank-only dataset).
     """
@@ -19,7 +26,7 @@ def recorded_drops(dataset: Dataset, object_id: str, reducer: str) -> tuple[np.n
     if not (dataset.path / "raw" / f"{object_id}.npz").is_file():
         return None
     velocities, windows = dataset.windows(object_id)
-    return velocities, get_registry().create("reducer", reducer).reduce(windows)
+    return velocities, (registry or get_registry()).create("reducer", reducer).reduce(windows)
 
 
 def training_data(dataset: Dataset, reducer: str, objects: list[str] | None = None, *,

@@ -88,7 +88,6 @@ class ContactModel(Model):
         from ..droprig.contact import MATERIALS
         from ..droprig.family import Strike
         from ..droprig.receiver import RECEIVERS
-        from ..registry import get_registry
 
         self.params = params
         self.context = context
@@ -104,7 +103,7 @@ class ContactModel(Model):
         if params.mass_kg is None and context.object_info is None:
             raise EffectError("the contact model needs an object: describe it with mass_kg (and dimensions_mm), "
                               "or set model.mass_kg", source=context.source, key="model")
-        self.reducer = get_registry().create("reducer", params.reducer)
+        self.reducer = context.components().create("reducer", params.reducer)
         self._cache: OrderedDict[tuple[str, float], np.ndarray] = OrderedDict()
         self._lock = threading.Lock()
         self._tables: dict[str, "PhysicsTable"] = {}

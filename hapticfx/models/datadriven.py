@@ -14,27 +14,28 @@ from ..data.dataset import Dataset, open_dataset
 from ..errors import EffectError, HapticfxError, SignalError, preview
 from ..interfaces import Impact, Interpolator, Model, Term, Terms
 from ..params import BuildContext, doc
-from ..registry import get_registry
 from ..signal import Signal
 
 
-def _interpolator(params, source: str) -> Interpolator:
+def _interpolator(params, context: BuildContext) -> Interpolator:
     """The effect's interpolator; its options are checked against what its class accepts."""
     try:
-        cls = get_registry().get("interpolator", params.interpolator).resolve()
+        cls = context.components().get("interpolator", params.interpolator).resolve()
     except HapticfxError as exc:
-        raise EffectError(str(exc), source=source, key="model.interpolator") from None
+        raise EffectError(str(exc), source=context.source, key="model.interpolator") from None
     accepted = inspect.signature(cls).parameters
     if not any(p.kind is p.VAR_KEYWORD for p in accepted.values()):
         allowed = [n for n, p in accepted.items() if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
         unknown = [k for k in params.interpolator_options if k not in allowed]
         if unknown:
             raise EffectError(f"unknown key {preview(unknown[0])} for interpolator {params.interpolator!r}; allowed: "
-                              f"{', '.join(allowed) or 'none'}", source=source, key="model.interpolator_options")
+                              f"{', '.join(allowed) or 'none'}", source=context.source,
+                              key="model.interpolator_options")
     try:
         return cls(**params.interpolator_options)
     except (TypeError, ValueError) as exc:
-        raise EffectError(f"{params.interpolator}: {exc}", source=source, key="model.interpolator_options") from None
+        raise EffectError(f"{params.interpolator}: {exc}", source=context.source,
+                          key="model.interpolator_options") from None
 
 
 class DataDrivenModel(Model):
@@ -64,7 +65,7 @@ class DataDrivenModel(Model):
         self.params = params
         self.context = context
         self.dataset: Dataset = open_dataset(params.dataset, relative_to=context.base_dir)
-        self.interpolator: Interpolator = _interpolator(params, context.source)
+        self.interpolator: Interpolator = _interpolator(params, context)
         self._prepared: dict[str, tuple] = {}  # object -> (bank, its velocities as floats), once prepared
         self._lock = threading.Lock()
         if context.object_id:

@@ -19,6 +19,7 @@ from ..data.training import recorded_drops
 from ..errors import DatasetError, SignalError
 from ..interfaces import Impact, Model
 from ..params import BuildContext, doc
+from ..registry import Registry
 from ..signal import Signal
 
 
@@ -31,19 +32,20 @@ _SHARED_LOCK = threading.Lock()
 _SHARED_MAX = 16
 
 
-def shared_drops(dataset: Dataset, object_id: str, reducer: str) -> tuple[np.ndarray, np.ndarray]:
-    """``velocities (V,)`` and every drop reduced ``(V, D, N)``, read-only, computed once per file version."""
+def shared_drops(dataset: Dataset, object_id: str, reducer: str, registry: Registry) -> tuple[np.ndarray, np.ndarray]:
+    """``velocities (V,)`` and every drop reduced ``(V, D, N)`` by ``registry``'s ``reducer``, read-only,
+    computed once per file version and reducer class."""
     raw, meta = dataset.path / "raw" / f"{object_id}.npz", dataset.path / "dataset.json"
     try:
         versions = tuple((st.st_size, st.st_mtime_ns) for st in (raw.stat(), meta.stat()))
     except OSError:
         raise DatasetError(f"dataset {dataset.name!r} keeps no raw drops of {object_id!r}") from None
-    key = (str(raw.resolve()), reducer, versions)
+    key = (str(raw.resolve()), reducer, registry.get("reducer", reducer).factory, versions)
     with _SHARED_LOCK:
         if key in _SHARED_DROPS:
             _SHARED_DROPS.move_to_end(key)
             return _SHARED_DROPS[key]
-        found = recorded_drops(dataset, object_id, reducer)
+        found = recorded_drops(dataset, object_id, reducer, registry=registry)
         if found is None:
             raise DatasetError(f"dataset {dataset.name!r} keeps no raw drops of {object_id!r}")
         for array in found:
@@ -79,7 +81,7 @@ class RecordedDropModel(Model):
 
     def drops(self, object_id: str) -> tuple[np.ndarray, np.ndarray]:
         """``velocities (V,)`` and every drop reduced ``(V, D, N)`` (read once per object and file version)."""
-        return shared_drops(self.dataset, object_id, self.params.reducer)
+        return shared_drops(self.dataset, object_id, self.params.reducer, self.context.components())
 
     def profile(self, object_id: str, velocity: float) -> np.ndarray:
         bank = self.dataset.bank(object_id, self.params.reducer)
