@@ -185,8 +185,12 @@ class Pipeline:
         if not self._opened:
             limits_own_mix(self.actuator)  # the conformance verdict before the device plays (see adopt)
             open_actuator(self.actuator, source=self.effect.source, key="actuator")
+            try:
+                self.adopt(self.actuator)
+            except BaseException:  # the model's atoms, say: nothing is left open
+                self.actuator.close()
+                raise
             self._opened = True
-            self.adopt(self.actuator)
         return self
 
     def adopt(self, actuator: Actuator) -> None:

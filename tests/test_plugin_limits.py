@@ -317,3 +317,32 @@ def test_an_actuator_whose_open_raises_is_one_error_naming_the_output_and_the_op
         Engine(scene, registry=_registry(actuators={"fx-test": Broken, "fx-tracked": Tracked}))
     assert str(err.value) == f"{scene}: brick: actuator 'fx-test' failed to open: RuntimeError: port handle is None"
     assert calls == ["open", "close"]
+
+
+def test_a_pipeline_that_fails_after_its_actuator_opened_closes_it_again(tmp_path):
+    """The model's atoms, shaped once the actuator is open, are refused (too long): the actuator is closed."""
+    from hapticfx.interfaces import Term, Terms
+    from hapticfx.models.kinetic import KineticEnergyModel
+
+    calls = []
+
+    class Tracked(MemoryActuator):
+        name = "fx-test"
+
+        def open(self):
+            calls.append("open")
+
+        def close(self):
+            calls.append("close")
+
+    class LongAtoms(KineticEnergyModel):
+        def atoms(self):
+            return Terms(1000.0, (Term("long", 1.0, np.zeros(130_000)),))  # 130 s
+
+    path = tmp_path / "e.yaml"
+    path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-long}\nactuator: {type: fx-test}\n")
+    pipeline = Pipeline.from_effect(path, registry=_registry(models={"fx-long": LongAtoms},
+                                                             actuators={"fx-test": Tracked}))
+    with pytest.raises(PluginError, match="a profile is at most 120 s"):
+        pipeline.open()
+    assert calls == ["open", "close"]
