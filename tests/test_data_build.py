@@ -1,12 +1,16 @@
 """build_dataset: preprocessing, representatives (medoid + overrides), atomic writes, lazy reads."""
 
 import json
+import re
 
 import numpy as np
 import pytest
 
+from hapticfx import hookspecs, registry
 from hapticfx.data.build import ObjectRecordings, build_dataset, set_representative
 from hapticfx.data.dataset import open_dataset
+from hapticfx.data.training import recorded_drops
+from hapticfx.interfaces import Reducer
 from hapticfx.processing.preprocess import preprocess
 from hapticfx.processing.reducers import dft321, max_min
 from hapticfx.processing.representative import choose, medoid
@@ -106,6 +110,48 @@ def test_failure_leaves_nothing_behind(tmp_path):
     with pytest.raises(DatasetError, match="recorder failed"):  # nor the folders it made for the dataset
         build_dataset(tmp_path / "new" / "sub" / "ds", recordings(), **META)
     assert list(tmp_path.iterdir()) == []
+
+
+BAD_REDUCERS = {  # what a reducer plugin may wrongly return for windows (..., N, 3), and the words that say so
+    "fx-short": (lambda xyz: xyz[..., :-1, 0], r"shape \(3, 499\)"),
+    "fx-axes": (lambda xyz: xyz, r"shape \(3, 500, 3\)"),
+    "fx-int": (lambda xyz: xyz[..., 0].astype(np.int64), "int64 values"),
+    "fx-nan": (lambda xyz: np.full(xyz.shape[:-1], np.nan), r"\d+ non-finite value"),
+    "fx-list": (lambda xyz: xyz[..., 0].tolist(), "a list"),
+}
+
+
+@pytest.fixture
+def bad_reducers(monkeypatch):
+    """The process registry with the core's plugins and the reducers of ``BAD_REDUCERS``."""
+    class Plugin:
+        @hookspecs.hookimpl
+        def register_reducers(self, register):
+            for name, (reduce, _) in BAD_REDUCERS.items():
+                register(name, type("Bad", (Reducer,), {"name": name, "reduce": lambda self, xyz, f=reduce: f(xyz)}))
+
+    pm, infos = registry.create_plugin_manager(entry_points=False)
+    pm.register(Plugin(), name="fx-test-plugin")
+    monkeypatch.setattr(registry, "_registry", registry.Registry(pm, infos))
+
+
+@pytest.mark.parametrize("name", BAD_REDUCERS)
+def test_a_reducer_returning_the_wrong_profiles_builds_nothing(tmp_path, bad_reducers, name):
+    out = tmp_path / "ds"
+    with pytest.raises(PluginError) as err:
+        build_dataset(out, _recs(), reducers=("max-min", name), **META)
+    message = str(err.value)
+    assert message.startswith(f"{out}: reducer '{name}' returned ") and "object 'wood-beam'" in message
+    assert re.search(BAD_REDUCERS[name][1], message) and "expected finite float64 values of shape (3, 500)" in message
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name", BAD_REDUCERS)
+def test_a_reducer_returning_the_wrong_drops_is_refused_naming_the_dataset(tmp_path, bad_reducers, name):
+    ds = open_dataset(build_dataset(tmp_path / "ds", _recs()[:1], reducers=("max-min",), **META))
+    with pytest.raises(PluginError, match=rf"^{re.escape(str(ds.path))}: reducer '{name}' returned .*object "
+                                          r"'wood-beam'.*expected finite float64 values of shape \(3, 4, 500\)"):
+        recorded_drops(ds, "wood-beam", name)
 
 
 def test_overwrite_is_explicit_and_atomic(tmp_path):

@@ -22,6 +22,7 @@ from ..interpolators.fitted import save_tables
 from ..objects import ObjectInfo
 from ..processing import representative
 from ..processing.preprocess import Preprocessing, preprocess
+from ..processing.reducers import reduce_checked
 from ..signal import valid_number, valid_signal
 from .bank import ProfileBank
 from .dataset import DatasetWriter
@@ -142,10 +143,11 @@ def build_dataset(
             picked = windows[np.arange(windows.shape[0]), chosen]
             for rname, reducer in reducer_objs:
                 say(f"{oid}: bank {rname}")
-                profiles = reducer.reduce(picked)
+                where = dict(source=str(out), label=f"object {oid!r}")
+                profiles = reduce_checked(reducer, rname, picked, **where)
                 writer.write_bank(rname, oid, rec.velocities_mps, profiles, chosen)
                 bank = ProfileBank(oid, rname, params.rate_hz, rec.velocities_mps, profiles)
-                fits[rname].append((bank, (rec.velocities_mps, reducer.reduce(windows))))
+                fits[rname].append((bank, (rec.velocities_mps, reduce_checked(reducer, rname, windows, **where))))
         if not seen:
             raise DatasetError(f"{out}: no recordings given")
         for rname, items in fits.items():

@@ -21,12 +21,14 @@ def recorded_drops(dataset: Dataset, object_id: str, reducer: str, *,
 
     None when the dataset keeps no raw recordings of the object (a bank-only dataset).
     """
+    from ..processing.reducers import reduce_checked
     from ..registry import get_registry
 
     if not (dataset.path / "raw" / f"{object_id}.npz").is_file():
         return None
     velocities, windows = dataset.windows(object_id)
-    return velocities, (registry or get_registry()).create("reducer", reducer).reduce(windows)
+    return velocities, reduce_checked((registry or get_registry()).create("reducer", reducer), reducer, windows,
+                                      source=str(dataset.path), label=f"object {object_id!r}")
 
 
 def training_data(dataset: Dataset, reducer: str, objects: list[str] | None = None, *,

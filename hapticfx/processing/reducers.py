@@ -1,13 +1,14 @@
 """Reducers from 3-axis to 1-axis acceleration: ``max-min`` (paper Eq. 8) and ``dft321``.
 
 Both take ``(..., N, 3)`` and return ``(..., N)``, vectorised over any leading axes.
+:func:`reduce_checked` runs any registered reducer and refuses an answer that is not that.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..errors import SignalError
+from ..errors import PluginError, SignalError
 from ..interfaces import Reducer
 from ..signal import valid_signal
 
@@ -42,6 +43,26 @@ def dft321(xyz) -> np.ndarray:
     magnitude = np.sqrt(np.sum(spectra.real ** 2 + spectra.imag ** 2, axis=-1))
     phase = np.angle(spectra.sum(axis=-1))
     return np.fft.irfft(magnitude * np.exp(1j * phase), n=n, axis=-1)
+
+
+def reduce_checked(reducer: Reducer, name: str, xyz: np.ndarray, *, source: str, label: str) -> np.ndarray:
+    """``reducer`` (registered as ``name``) applied to the float64 ``xyz (..., N, 3)`` of ``label``, such as
+    "object 'wood-beam'": a plugin's answer must be a finite float64 array of shape ``(..., N)``. Anything
+    else is a :class:`PluginError` naming ``source`` (the dataset), the reducer and what was expected."""
+    out = reducer.reduce(xyz)
+    want = xyz.shape[:-1]
+    if not isinstance(out, np.ndarray):
+        got = f"a {type(out).__name__}"
+    elif out.dtype != np.float64:
+        got = f"{out.dtype} values"
+    elif out.shape != want:
+        got = f"shape {out.shape}"
+    elif not np.all(np.isfinite(out)):
+        got = f"{np.count_nonzero(~np.isfinite(out))} non-finite value(s)"
+    else:
+        return out
+    raise PluginError(f"reducer {name!r} returned {got} for {label}; expected finite float64 values of shape {want}",
+                      source=source)
 
 
 class MaxMin(Reducer):
