@@ -81,6 +81,35 @@ def test_reducers_finite_and_linear_at_extreme_scales(scale):
         np.testing.assert_allclose(out, fn(xyz) * scale, rtol=1e-9, atol=1e-9 * scale)
 
 
+@pytest.mark.parametrize("scale", [1e153, 1e200, 2.0 ** 1000, 1e306])
+def test_dft321_finite_and_linear_beyond_where_its_squares_overflow(scale):
+    # The float64 reference is the same signal reduced at an ordinary scale, then scaled.
+    xyz = np.random.default_rng(3).normal(size=(2, 500, 3)) / 4
+    out = dft321(xyz * scale)
+    assert np.all(np.isfinite(out))
+    np.testing.assert_allclose(out, dft321(xyz) * scale, rtol=1e-9, atol=1e-9 * scale)
+    assert np.array_equal(dft321(np.stack([xyz[0], xyz[1] * scale]))[0], dft321(xyz[0]))  # each signal by itself
+
+
+def test_dft321_of_the_largest_floats():
+    top = np.finfo(np.float64).max
+    one_axis = np.zeros((4, 3))
+    one_axis[0, 0] = top
+    np.testing.assert_allclose(dft321(one_axis), [top, 0.0, 0.0, 0.0], rtol=1e-12, atol=1e-12 * top)
+    with pytest.raises(SignalError, match="dft321 of a signal peaking at 1.8e\\+308 exceeds the float64 range"):
+        dft321(np.full((4, 3), top))  # sqrt(3) * top has no float64
+
+
+def test_dft321_of_the_builtin_drops_is_the_shipped_bank():
+    from hapticfx.data.dataset import open_dataset
+
+    ds = open_dataset("builtin:helmet-drops")
+    for obj in ds.objects:
+        velocities, windows = ds.windows(obj)
+        picked = windows[np.arange(len(velocities)), ds.representatives(obj)["chosen"]]
+        assert np.array_equal(dft321(picked), ds.bank(obj, "dft321").profiles)  # bit for bit: banks have digests
+
+
 def test_reducers_validate_input():
     for fn in (dft321, max_min):
         with pytest.raises(SignalError, match=r"\(\.\.\., samples, 3\)"):

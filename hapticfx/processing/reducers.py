@@ -30,19 +30,42 @@ def max_min(xyz) -> np.ndarray:
     return np.where(largest >= 0, largest, np.minimum(np.minimum(x, y), z))
 
 
+# A spectrum of N samples of at most p is at most N p; below this, the sum of three axes' squared spectra
+# (at most 3 (N p)^2) stays finite.
+_SQUARES_SAFE = np.sqrt(np.finfo(np.float64).max) / 4
+
+
+def _dft321(arr: np.ndarray) -> np.ndarray:
+    spectra = np.fft.rfft(arr, axis=-2)
+    magnitude = np.sqrt(np.sum(spectra.real ** 2 + spectra.imag ** 2, axis=-1))
+    phase = np.angle(spectra.sum(axis=-1))
+    return np.fft.irfft(magnitude * np.exp(1j * phase), n=arr.shape[-2], axis=-1)
+
+
 def dft321(xyz) -> np.ndarray:
     """DFT321 (paper Eqs. 12-14; Landin et al. 2010).
 
     Magnitude: root-sum-square of the three axes' spectra. Phase: the angle of
     the summed spectra (``np.angle``, defined in all four quadrants). The
     length is kept; a single non-zero axis comes back unchanged.
+
+    A signal so large that the squared spectra would overflow (above about 1e153 / N) is reduced
+    scaled by a power of two, which is exact, and scaled back; every other signal is reduced as it
+    is, bit for bit. A result beyond the float64 range (``sqrt(3)`` times the largest float, say)
+    is a :class:`SignalError`.
     """
     arr = _xyz(xyz)
-    n = arr.shape[-2]
-    spectra = np.fft.rfft(arr, axis=-2)
-    magnitude = np.sqrt(np.sum(spectra.real ** 2 + spectra.imag ** 2, axis=-1))
-    phase = np.angle(spectra.sum(axis=-1))
-    return np.fft.irfft(magnitude * np.exp(1j * phase), n=n, axis=-1)
+    safe = _SQUARES_SAFE / arr.shape[-2]
+    if max(arr.max(), -arr.min()) <= safe:
+        return _dft321(arr)
+    peak = np.max(np.abs(arr), axis=(-2, -1), keepdims=True)
+    large = peak > safe
+    exponent = np.where(large, np.frexp(peak)[1], 0)[..., 0]  # each large signal's peak brought below 1
+    with np.errstate(over="ignore"):
+        out = np.ldexp(_dft321(np.ldexp(arr, -exponent[..., None])), exponent)
+    if not np.all(np.isfinite(out)):
+        raise SignalError(f"dft321 of a signal peaking at {peak.max():.2g} exceeds the float64 range")
+    return out
 
 
 def reduce_checked(reducer: Reducer, name: str, xyz: np.ndarray, *, source: str, label: str) -> np.ndarray:
