@@ -17,10 +17,10 @@ QUEST = PRESETS["quest"]
 RATE = 8000.0
 
 
-def impact(rate=48000.0, f=120.0, duration=0.4, peak=0.6):
+def impact(rate=48000.0, f=120.0, duration=0.4, peak=0.6, decay_s=0.06):
     """A decaying sine with a sharp onset at 10 ms: what a rendered impact looks like."""
     t = np.arange(int(duration * rate)) / rate
-    x = peak * np.exp(-(t - 0.01) / 0.06) * np.sin(2 * np.pi * f * (t - 0.01))
+    x = peak * np.exp(-(t - 0.01) / decay_s) * np.sin(2 * np.pi * f * (t - 0.01))
     return Signal(np.where(t >= 0.01, x, 0.0), rate)
 
 
@@ -88,6 +88,21 @@ def test_silence_and_a_clipped_signal_stay_bounded(tmp_path):
         for fmt in all_formats():
             _, decoded = write_read(fmt, tmp_path, x)
             assert np.all(np.isfinite(decoded.signal.samples)) and np.max(np.abs(decoded.signal.samples)) <= 1.0 + 1e-9
+
+
+@pytest.mark.parametrize("device", ["quest", "console-pcm"])
+@pytest.mark.parametrize("f, decay_s", [(40.0, 0.5), (120.0, 0.5), (160.0, 0.15), (160.0, 0.5), (200.0, 0.03),
+                                        (200.0, 0.5)])
+def test_hjif_never_reads_back_above_the_impacts_peak(tmp_path, device, f, decay_s):
+    """What reaches a device through the file stays within the limited impact. The continuous signal came back
+    while the onset burst still played, ducked but adding to it: a slow 0.3 decay read back at up to 0.38."""
+    dev = PRESETS[device]
+    fmt = format_named("hjif")
+    for rate in (RATE, 48000.0):
+        x = impact(rate=rate, f=f, peak=0.3, decay_s=decay_s)
+        path = tmp_path / "x.hjif"
+        fmt.write(path, x, ExportOptions(device=dev))
+        assert np.abs(fmt.read(path, dev, rate_hz=rate).signal.samples).max() <= np.abs(x.samples).max()
 
 
 def test_the_frequency_maps_onto_the_device_range():

@@ -126,8 +126,7 @@ def analyse(x: np.ndarray, rate_hz: float, device: Device, *, tolerance: float =
         onset = int(np.argmax(env >= ONSET * env[peak]))
         if (peak - onset) / GRID_HZ <= SHARP_RISE_S:
             s = float(np.interp(peak / GRID_HZ, ftimes, fvals)) if len(ftimes) else 0.5
-            lo, hi = device.emphasis_min.duration_ms, device.emphasis_max.duration_ms
-            end = min(len(env) - 1, peak + max(1, int(round((lo + s * (hi - lo)) * GRID_HZ / 1000))))
+            end = min(len(env) - 1, peak + max(1, int(round(device.burst_ms(s) * GRID_HZ / 1000))))
             emphasis.append(Emphasis(peak / GRID_HZ, float(env[peak:end].mean()), s))
             env = env.copy()
             env[peak:end] = 0.0
@@ -139,4 +138,4 @@ def analyse(x: np.ndarray, rate_hz: float, device: Device, *, tolerance: float =
         frequency = np.column_stack((ftimes[fidx], fvals[fidx]))
     else:
         frequency = np.zeros((0, 2))
-    return Pattern(amplitude, frequency, tuple(emphasis))
+    return Pattern(amplitude, frequency, tuple(emphasis), peak=float(np.max(np.abs(x), initial=0.0)))

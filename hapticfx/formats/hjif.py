@@ -19,7 +19,11 @@ refuses the file.
 hapticfx writes one Vibrotactile perception, one channel (``body_part_mask`` 0, unspecified:
 the mask's bit for the head could not be checked), a ``VectorialWave`` band whose one sine
 effect carries the amplitude breakpoints with their frequency in Hz, and a ``Transient`` band
-for an onset emphasis (its frequency the burst's Hz). Reading renders ``VectorialWave``
+for an onset emphasis (its frequency the burst's Hz). The burst is played over a continuous signal only
+ducked, so the keyframes stay at 0 until the first tick at or after the burst ends as the export device
+plays it (its length follows from the integer Hz written) and come back one tick later; amplitudes are
+clipped to the impact's peak and rounded down: read back on that device, the file stays within the
+limited impact (tests/test_formats.py). Reading renders ``VectorialWave``
 keyframes as a sine at their Hz under their amplitude (Hz outside the reading device's range
 are played at its nearest edge) and ``Transient`` effects as emphasis bursts; ``Curve`` bands
 (a low-frequency signal of its own) and ``WaveletWave`` bands (the codec's residual) are not
@@ -59,14 +63,18 @@ class HjifFormat(EnvelopeFormat):
 
     def document(self, pattern: Pattern, options: ExportOptions) -> Any:
         dev = options.device
-        t, a = pattern.amplitude[:, 0], np.clip(pattern.amplitude[:, 1], 0.0, 1.0)
+        lo, hi = dev.emphasis_min, dev.emphasis_max
+        burst_hz = [int(round(lo.frequency_hz + e.frequency * (hi.frequency_hz - lo.frequency_hz)))
+                    for e in pattern.emphasis]
+        t, a = pattern.amplitude[:, 0], np.clip(pattern.amplitude[:, 1], 0.0, min(1.0, pattern.peak))
+        for e, f in zip(pattern.emphasis, burst_hz):
+            t, a = _silent_under(t, a, e.time_s, e.time_s + dev.burst_ms(_burst_frequency(f, dev)) / 1000)
         hz = dev.hz(np.interp(t, pattern.frequency[:, 0], pattern.frequency[:, 1]) if len(pattern.frequency)
                     else np.full(len(t), 0.5))
         ticks = np.round(t * TIMESCALE).astype(int)
         keep = np.concatenate(([True], np.diff(ticks) > 0))
-        keyframes = [{"relative_position": int(p), "amplitude_modulation": round(float(v), 6),
+        keyframes = [{"relative_position": int(p), "amplitude_modulation": _written(v),
                       "frequency_modulation": int(round(f))} for p, v, f in zip(ticks[keep], a[keep], hz[keep])]
-        lo, hi = dev.emphasis_min, dev.emphasis_max
         bands = [{"band_type": "VectorialWave", "curve_type": "Linear",
                   "lower_frequency_limit": int(np.floor(dev.frequency_min_hz)),
                   "upper_frequency_limit": int(np.ceil(dev.frequency_max_hz)),
@@ -78,10 +86,10 @@ class HjifFormat(EnvelopeFormat):
                           "upper_frequency_limit": int(np.ceil(max(lo.frequency_hz, hi.frequency_hz))),
                           "effects": [{"id": i + 1, "effect_type": "Basis", "position": int(round(e.time_s * TIMESCALE)),
                                        "phase": 0.0, "base_signal": "Sine", "keyframes": [{
-                                           "relative_position": 0, "amplitude_modulation": round(float(e.amplitude), 6),
-                                           "frequency_modulation": int(round(lo.frequency_hz + e.frequency *
-                                                                             (hi.frequency_hz - lo.frequency_hz)))}]}
-                                      for i, e in enumerate(pattern.emphasis)]})
+                                           "relative_position": 0,
+                                           "amplitude_modulation": _written(min(e.amplitude, pattern.peak)),
+                                           "frequency_modulation": f}]}
+                                      for i, (e, f) in enumerate(zip(pattern.emphasis, burst_hz))]})
         return {"version": VERSION, "profile": "Main", "level": 1, "date": date.today().isoformat(),
                 "description": options.description or f"exported by hapticfx {__version__}", "timescale": TIMESCALE,
                 "avatars": [], "syncs": [],
@@ -184,7 +192,6 @@ class HjifFormat(EnvelopeFormat):
                 parts.append((np.array(times), np.array(amps) * gain, hz))
 
     def _render(self, parts, emphasis, device: Device, rate_hz: float, source: str) -> Curves:
-        lo, hi = device.emphasis_min.frequency_hz, device.emphasis_max.frequency_hz
         burst = max(device.emphasis_min.duration_ms, device.emphasis_max.duration_ms) / 1000
         end = max([p[0][-1] for p in parts] + [e[0] + burst for e in emphasis] + [1.0 / rate_hz])
         n = grid_size(end, rate_hz, source)
@@ -199,7 +206,28 @@ class HjifFormat(EnvelopeFormat):
                 hz = np.where(on & (np.abs(a) > amplitude), np.interp(grid, times[known], f[known]), hz)
             amplitude = amplitude + np.abs(a)
         freq = device.normalised(hz)
-        span = hi - lo
-        emph = tuple(Emphasis(t, min(1.0, a), float(np.clip((f - lo) / span, 0, 1)) if span > 0 else 0.5)
-                     for t, a, f in sorted(emphasis))
+        emph = tuple(Emphasis(t, min(1.0, a), _burst_frequency(f, device)) for t, a, f in sorted(emphasis))
         return Curves(rate_hz, np.minimum(amplitude, 1.0), freq, emph)
+
+
+def _burst_frequency(hz: float, device: Device) -> float:
+    """A ``Transient`` effect's Hz as the 0-1 emphasis frequency ``device`` plays it at (its length follows)."""
+    lo, hi = device.emphasis_min.frequency_hz, device.emphasis_max.frequency_hz
+    return float(np.clip((hz - lo) / (hi - lo), 0, 1)) if hi > lo else 0.5
+
+
+def _written(amplitude: float) -> float:
+    """An amplitude as the file holds it: 6 decimals, rounded down, so that no reading exceeds what was analysed."""
+    return float(np.floor(amplitude * 1e6) / 1e6)
+
+
+def _silent_under(t: np.ndarray, a: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitude breakpoints ``(t, a)`` held at 0 from ``start`` to the first tick at or after ``end`` (a burst's
+    last sample as the reader plays it), back on their line one tick later. The continuous signal is only ducked
+    under a burst: where the two overlapped, they added up past the impact's peak."""
+    stop = np.ceil(end * TIMESCALE) / TIMESCALE
+    back = min(stop + 1 / TIMESCALE, t[-1])
+    resume = [back] if back > stop else []  # none where the burst outlasts the breakpoints
+    before, after = t < start, t > back
+    return (np.concatenate((t[before], [start, stop], resume, t[after])),
+            np.concatenate((a[before], [0.0, 0.0], np.interp(resume, t, a), a[after])))

@@ -39,11 +39,15 @@ class Emphasis:
 
 @dataclass(frozen=True)
 class Pattern:
-    """Breakpoints: ``amplitude`` (K, 2) of (time s, 0-1); ``frequency`` (M, 2) of (time s, 0-1), may be empty."""
+    """Breakpoints: ``amplitude`` (K, 2) of (time s, 0-1); ``frequency`` (M, 2) of (time s, 0-1), may be empty.
+
+    ``peak`` is the largest ``|x|`` of the signal analysed (the limited impact): what a file may not exceed.
+    """
 
     amplitude: np.ndarray
     frequency: np.ndarray
     emphasis: tuple[Emphasis, ...] = ()
+    peak: float = 1.0
 
     @property
     def duration_s(self) -> float:

@@ -45,7 +45,7 @@ def synthesize(curves: Curves, device: Device) -> np.ndarray:
     for e in curves.emphasis:
         s = float(np.clip(e.frequency, 0.0, 1.0))
         freq = lo.frequency_hz + s * (hi.frequency_hz - lo.frequency_hz)
-        dur = (lo.duration_ms + s * (hi.duration_ms - lo.duration_ms)) / 1000.0
+        dur = device.burst_ms(s) / 1000.0
         start = max(0, int(round(e.time_s * rate)))  # a burst before the start plays at the start
         count = max(1, int(round(dur * rate)))
         t = np.arange(count) / rate
