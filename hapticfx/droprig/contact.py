@@ -180,35 +180,77 @@ class DropScene:
     # --- dynamics ---------------------------------------------------------------
     def rhs(self, t, s):
         """Time derivative of the state (see the module docstring)."""
-        self.evaluations += 1
-        h = self.helmet
-        x, y, th, vx, vy, om, yh, vh, be, vb = s[:JY].tolist()
+        return np.array(self.derivative()(t, s))
+
+    def derivative(self):
+        """The right-hand side ``f(t, s)`` as the solvers call it, returning a list of floats.
+
+        The same arithmetic as :meth:`rhs`, in the same order (the same bits), with the scene's constants
+        bound once: the solvers call it thousands of times per impact, and attribute look-ups, method calls
+        and a numpy array per call were most of its cost. Each call counts in ``evaluations``.
+        """
+        h, scene = self.helmet, self
+        a, b, radius = self.block.half_width, self.block.half_thickness, h.dome_radius
+        tiny = 1e-12 * (a + b)
         m, inertia, pivot = self.block.mass, self.block.inertia, h.pivot_height
-        cx, cy = self.dome_centre(yh, be)
-        delta, px, py, nx, ny = self._closest(x, y, th, cx, cy)
-        f = 0.0
-        if delta > 0.0:
-            rx, ry = px - x, py - y
-            rate = -((vx - om * ry + vb * (py + pivot)) * nx + (vy + om * rx - vh - vb * px) * ny)
-            f = self.stiffness * delta * math.sqrt(delta) * (1.0 + self.damping * rate)
-            f = f if f > 0.0 else 0.0
-        fx, fy = f * nx, f * ny
-        torque = -(px * fy - (py + pivot) * fx)  # reaction on the helmet about the pivot
-        comp = self._preload - yh
-        support = 0.0
-        if comp > 0.0:
-            support = self._support_k * comp * math.sqrt(comp) * (1.0 - h.support_damping * vh)
-            support = support if support > 0.0 else 0.0
-        out = [
-            vx, vy, om, fx / m, fy / m - self.gravity, ((px - x) * fy - (py - y) * fx) / inertia,
-            vh, (support - fy) / h.mass - G,
-            vb, (-self._rocking_k * be - self._rocking_c * vb + torque) / self._rocking_inertia,
-            -fy, torque,
-        ]
-        if self._shapes:
-            phi = math.atan2(px - cx, py - cy)
-            out.extend(f * math.cos(order * phi) for order in self._shapes)
-        return np.array(out)
+        arm = h.pivot_height - h.dome_radius
+        neg_arm = -arm
+        k, alpha, gravity = self.stiffness, self.damping, self.gravity
+        preload, support_k, support_damping, mass_h = self._preload, self._support_k, h.support_damping, h.mass
+        neg_rocking_k, rocking_c, rocking_inertia = -self._rocking_k, self._rocking_c, self._rocking_inertia
+        shapes = self._shapes
+        silent = [0.0] * len(shapes)
+        closest = self._closest
+        sqrt, sin, cos, hypot, atan2 = math.sqrt, math.sin, math.cos, math.hypot, math.atan2
+
+        def f(t, s):
+            scene.evaluations += 1
+            x, y, th, vx, vy, om, yh, vh, be, vb = s[:JY].tolist()
+            # the dome centre (DropScene.dome_centre) and the point of the block closest to it (DropScene._closest)
+            cx, cy = neg_arm * sin(be), yh - pivot + arm * cos(be)
+            c, sn = cos(th), sin(th)
+            dx, dy = cx - x, cy - y
+            bx, by = c * dx + sn * dy, -sn * dx + c * dy
+            qx = a if bx > a else (-a if bx < -a else bx)
+            qy = b if by > b else (-b if by < -b else by)
+            ex, ey = qx - bx, qy - by
+            dist = hypot(ex, ey)
+            if dist > tiny:
+                delta = radius - dist
+                px, py = x + c * qx - sn * qy, y + sn * qx + c * qy
+            else:
+                delta, px, py, nx, ny = closest(x, y, th, cx, cy)
+            force = 0.0
+            if delta > 0.0:
+                if dist > tiny:
+                    nbx, nby = ex / dist, ey / dist
+                    nx, ny = c * nbx - sn * nby, sn * nbx + c * nby
+                rx, ry = px - x, py - y
+                rate = -((vx - om * ry + vb * (py + pivot)) * nx + (vy + om * rx - vh - vb * px) * ny)
+                force = k * delta * sqrt(delta) * (1.0 + alpha * rate)
+            comp = preload - yh
+            support = 0.0
+            if comp > 0.0:
+                support = support_k * comp * sqrt(comp) * (1.0 - support_damping * vh)
+                support = support if support > 0.0 else 0.0
+            if force > 0.0:
+                fx, fy = force * nx, force * ny
+                torque = -(px * fy - (py + pivot) * fx)  # reaction on the helmet about the pivot
+                out = [
+                    vx, vy, om, fx / m, fy / m - gravity, ((px - x) * fy - (py - y) * fx) / inertia,
+                    vh, (support - fy) / mass_h - G,
+                    vb, (neg_rocking_k * be - rocking_c * vb + torque) / rocking_inertia,
+                    -fy, torque,
+                ]
+                if shapes:
+                    phi = atan2(px - cx, py - cy)
+                    out += [force * cos(order * phi) for order in shapes]
+                return out
+            # apart (or a contact that would pull): no contact force
+            return [vx, vy, om, 0.0, -gravity, 0.0, vh, support / mass_h - G,
+                    vb, (neg_rocking_k * be - rocking_c * vb) / rocking_inertia, 0.0, 0.0, *silent]
+
+        return f
 
     def scales(self) -> np.ndarray:
         """Typical magnitude of each state, for absolute tolerances."""
@@ -233,13 +275,22 @@ class DropScene:
         difference Jacobian keeps growing its step for such columns until it
         overflows (seen with Radau at k = 1e10), hence this one with fixed steps.
         """
-        f0 = self.rhs(t, s)
-        jac = np.zeros((self.n_state, self.n_state))
-        steps = 1.5e-8 * np.maximum(np.abs(s[:JY]), self._jac_scale)
-        for i in range(JY):
-            shifted = s.copy()
-            shifted[i] += steps[i]
-            jac[:, i] = (self.rhs(t, shifted) - f0) / steps[i]
+        return self.jacobian(self.derivative())(t, s)
+
+    def jacobian(self, fn):
+        """:meth:`jac` as a function ``(t, s)`` of the right-hand side ``fn`` (from :meth:`derivative`)."""
+        n, scale = self.n_state, self._jac_scale
+
+        def jac(t, s):
+            f0 = np.array(fn(t, s))
+            out = np.zeros((n, n))
+            steps = 1.5e-8 * np.maximum(np.abs(s[:JY]), scale)
+            for i in range(JY):
+                shifted = s.copy()
+                shifted[i] += steps[i]
+                out[:, i] = (np.array(fn(t, shifted)) - f0) / steps[i]
+            return out
+
         return jac
 
     def _tolerances(self, duration: float, rtol: float) -> tuple[np.ndarray, float]:
@@ -257,8 +308,9 @@ class DropScene:
         from scipy.integrate import solve_ivp
 
         atol, max_step = self._tolerances(duration, rtol)
-        implicit = {"jac": self.jac} if method in ("Radau", "BDF", "LSODA") else {}
-        sol = solve_ivp(self.rhs, (0.0, duration), self.initial_state(), method=method, rtol=rtol, atol=atol,
+        fn = self.derivative()
+        implicit = {"jac": self.jacobian(fn)} if method in ("Radau", "BDF", "LSODA") else {}
+        sol = solve_ivp(fn, (0.0, duration), self.initial_state(), method=method, rtol=rtol, atol=atol,
                         dense_output=dense, max_step=max_step, **implicit)
         if not sol.success:
             raise SignalError(f"contact integration failed ({method}): {sol.message}")
@@ -276,7 +328,8 @@ class DropScene:
         t = np.arange(n) / float(rate_hz)
         duration = max(float(t[-1]), 1.0 / float(rate_hz))
         atol, max_step = self._tolerances(duration, rtol)
-        states, info = odeint(self.rhs, self.initial_state(), t, Dfun=self.jac, tfirst=True, rtol=rtol,
+        fn = self.derivative()
+        states, info = odeint(fn, self.initial_state(), t, Dfun=self.jacobian(fn), tfirst=True, rtol=rtol,
                               atol=atol, hmax=max_step, mxstep=200_000, full_output=True)
         if info["message"] != "Integration successful.":
             raise SignalError(f"contact integration failed (LSODA): {info['message']}")
