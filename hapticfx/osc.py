@@ -46,13 +46,13 @@ log = logging.getLogger(__name__)
 
 IMPACT_ADDRESS = "/hapticfx/impact"
 PROTOCOL_VERSION = 2  # 1: object, velocity, channel, at; 2: + contact point and normal, bundles with timetags
-MAX_BUNDLE_DEPTH = 4   # bundles inside bundles deeper than this are dropped (reason `bundle`)
+MAX_BUNDLE_DEPTH = 4   # a bundle nested deeper than this is one dropped element (reason `bundle`)
 
 DROP_REASONS = (
     "oversize",        # longer than max_datagram bytes
     "rate_limited",    # over the token bucket (checked before any decoding)
     "not_osc",         # not a well-formed OSC 1.0 message
-    "bundle",          # a malformed or empty OSC bundle, or one nested too deep
+    "bundle",          # a malformed or empty OSC bundle, or one nested too deep (that element alone)
     "wrong_address",   # a well-formed message to an address we do not serve
     "unauthorized",    # /<secret>/hapticfx/impact with a wrong secret, or the plain address from another machine
     "wrong_types",     # right address, type tags not one of the documented forms
@@ -155,11 +155,11 @@ def timetag_seconds(timetag: int) -> float | None:
 def split_bundle(data: bytes, *, depth: int = 0) -> list[tuple[bytes, float | None]]:
     """The messages of an OSC bundle (nested bundles flattened), each with its innermost timetag in seconds.
 
-    Raises :class:`OscDecodeError` (``bundle``) for an empty or malformed bundle or one nested
-    deeper than :data:`MAX_BUNDLE_DEPTH`; the messages themselves are not decoded here.
+    A bundle nested deeper than :data:`MAX_BUNDLE_DEPTH` is not opened: it stays one element, which
+    :func:`decode_message` refuses (``bundle``), so the messages beside it still count on their own.
+    Raises :class:`OscDecodeError` (``bundle``) for an empty or malformed bundle; the messages
+    themselves are not decoded here.
     """
-    if depth > MAX_BUNDLE_DEPTH:
-        raise OscDecodeError("bundle", f"bundles nested deeper than {MAX_BUNDLE_DEPTH}")
     if len(data) < 24 or len(data) % 4 or not data.startswith(BUNDLE_HEAD):
         raise OscDecodeError("bundle", "a bundle needs '#bundle', a timetag and at least one element")
     (timetag,) = struct.unpack_from(">Q", data, 8)
@@ -175,7 +175,7 @@ def split_bundle(data: bytes, *, depth: int = 0) -> list[tuple[bytes, float | No
             raise OscDecodeError("bundle", f"element of {size} byte(s) does not fit the bundle")
         element = data[pos:pos + size]
         pos += size
-        if element.startswith(BUNDLE_HEAD):
+        if element.startswith(BUNDLE_HEAD) and depth < MAX_BUNDLE_DEPTH:
             out.extend(split_bundle(element, depth=depth + 1))
         else:
             out.append((element, at))

@@ -310,3 +310,25 @@ def _msg(address, *args):
     for a in args:
         b.add_arg(*a) if isinstance(a, tuple) else b.add_arg(a)
     return b.build()
+
+
+def test_a_bundle_nested_too_deep_drops_only_what_is_below_the_limit():
+    """Six levels of python-osc bundles, an impact at each: the whole datagram was one `bundle` drop, and the
+    five impacts within the four levels allowed were lost with the sixth."""
+    inner = None
+    for level in reversed(range(6)):  # level 0 is the datagram's own bundle, level 5 is one too deep
+        bundle = OscBundleBuilder(IMMEDIATELY)
+        bundle.add_content(_msg(IMPACT_ADDRESS, "brick", (float(level + 1), "f")))
+        if inner is not None:
+            bundle.add_content(inner)
+        inner = bundle.build()
+    rec = Recorder()
+    with OscBridge(rec, {"brick"}, port=0, rate_hz=0) as bridge:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+            client.sendto(inner.dgram, bridge.address)
+            deadline = time.monotonic() + 5
+            while bridge.stats()["received"] < 6 and time.monotonic() < deadline:
+                time.sleep(0.01)
+        stats = bridge.stats()
+    assert [m.velocity for m in rec.messages] == [1.0, 2.0, 3.0, 4.0, 5.0]
+    assert (stats["received"], stats["accepted"], stats["dropped"]["bundle"], stats["dropped_total"]) == (6, 5, 1, 1)
