@@ -123,7 +123,7 @@ class DropScene:
             raise SignalError("block half extents must be > 0")
         h = self.helmet
         self._shapes = tuple(m.order for m in h.modes)
-        self._preload, self._support_k = h.support_preload, h.support_k
+        self._preload, self._support_damping = h.support_preload, h.support_damping
         self._rocking_k, self._rocking_c, self._rocking_inertia = h.rocking_k, h.rocking_c, h.rocking_inertia
         self.n_state = N_RIGID + len(h.modes)
         self.evaluations = 0  # right-hand side calls, including those made for Jacobians
@@ -196,7 +196,7 @@ class DropScene:
         arm = h.pivot_height - h.dome_radius
         neg_arm = -arm
         k, alpha, gravity = self.stiffness, self.damping, self.gravity
-        preload, support_k, support_damping, mass_h = self._preload, self._support_k, h.support_damping, h.mass
+        lift, mass_h = self._lift, h.mass
         neg_rocking_k, rocking_c, rocking_inertia = -self._rocking_k, self._rocking_c, self._rocking_inertia
         shapes = self._shapes
         silent = [0.0] * len(shapes)
@@ -228,17 +228,13 @@ class DropScene:
                 rx, ry = px - x, py - y
                 rate = -((vx - om * ry + vb * (py + pivot)) * nx + (vy + om * rx - vh - vb * px) * ny)
                 force = k * delta * sqrt(delta) * (1.0 + alpha * rate)
-            comp = preload - yh
-            support = 0.0
-            if comp > 0.0:
-                support = support_k * comp * sqrt(comp) * (1.0 - support_damping * vh)
-                support = support if support > 0.0 else 0.0
+            up = lift(yh, vh)
             if force > 0.0:
                 fx, fy = force * nx, force * ny
                 torque = -(px * fy - (py + pivot) * fx)  # reaction on the helmet about the pivot
                 out = [
                     vx, vy, om, fx / m, fy / m - gravity, ((px - x) * fy - (py - y) * fx) / inertia,
-                    vh, (support - fy) / mass_h - G,
+                    vh, up - fy / mass_h,
                     vb, (neg_rocking_k * be - rocking_c * vb + torque) / rocking_inertia,
                     -fy, torque,
                 ]
@@ -247,10 +243,24 @@ class DropScene:
                     out += [force * cos(order * phi) for order in shapes]
                 return out
             # apart (or a contact that would pull): no contact force
-            return [vx, vy, om, 0.0, -gravity, 0.0, vh, support / mass_h - G,
+            return [vx, vy, om, 0.0, -gravity, 0.0, vh, up,
                     vb, (neg_rocking_k * be - rocking_c * vb) / rocking_inertia, 0.0, 0.0, *silent]
 
         return f
+
+    def _lift(self, yh: float, vh: float) -> float:
+        """The support's push on the receiver less the receiver's weight, per unit of its mass (m/s^2), at crown
+        displacement ``yh`` and velocity ``vh``.
+
+        The push is ``M g (c / c0)^1.5 (1 - alpha vh)`` at compression ``c = c0 - yh`` (``c0``: the preload),
+        never pulling. ``(c / c0)^1.5 - 1`` is ``expm1(1.5 log1p(-yh / c0))``: written as push minus weight it
+        cancels to the rounding of ``M g``, and a displacement below ``c0``'s last bit (a 1 mg object's
+        impact) is lost in that noise, which the solver then chases with ever smaller steps.
+        """
+        damped = 1.0 - self._support_damping * vh
+        if yh >= self._preload or damped <= 0.0:
+            return -G
+        return G * (math.expm1(1.5 * math.log1p(-yh / self._preload)) * damped - self._support_damping * vh)
 
     def scales(self) -> np.ndarray:
         """Typical magnitude of each state, for absolute tolerances."""
