@@ -286,6 +286,32 @@ def test_validate_checks_scenes_and_studies_as_serve_and_study_run_load_them(tmp
     assert bad[0]["ok"] is False and "unknown actuator ['helmet']" in bad[0]["error"]
 
 
+def test_validate_parses_each_file_once(monkeypatch):
+    """`validate` parsed every YAML file twice: once to tell a scene, study or effect apart, once to load it."""
+    from collections import Counter
+
+    from typer.testing import CliRunner
+
+    import hapticfx.effect
+    import hapticfx.scene
+    import hapticfx.study.spec
+    from hapticfx.cli import build_app
+
+    parsed, read_yaml = Counter(), hapticfx.effect.read_yaml
+
+    def counted(path):
+        parsed[Path(path).resolve()] += 1
+        return read_yaml(path)
+
+    for module in (hapticfx.effect, hapticfx.scene, hapticfx.study.spec):
+        monkeypatch.setattr(module, "read_yaml", counted)
+    files = [REPO / "scenes" / "earthquake_room.yaml", REPO / "studies" / "paper_study2.yaml",
+             REPO / "effects" / "falling_steel_plate_convbilstm.yaml"]  # none names another of the three
+    result = CliRunner().invoke(build_app(), ["validate", *map(str, files)])
+    assert result.exit_code == 0, result.output
+    assert [parsed[f.resolve()] for f in files] == [1, 1, 1]
+
+
 def test_render_replaces_the_csv_it_wrote_and_not_another(tmp_path, write_effect):
     effect, out = write_effect(KE % "memory"), tmp_path / "t.csv"
     for _ in range(2):

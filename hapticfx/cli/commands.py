@@ -125,13 +125,8 @@ def render(
     typer.echo(_summary(pipeline, delivery, ", ".join(map(str, written))))
 
 
-def _yaml_kind(file: Path) -> str:
-    """'scene', 'study' or 'effect': what a file holds, by its top-level keys (a haptic file is an effect)."""
-    from ..effect import read_yaml
-
-    if file.suffix.lower() not in (".yaml", ".yml"):
-        return "effect"
-    data = read_yaml(file)
+def _yaml_kind(data) -> str:
+    """'scene', 'study' or 'effect': what a parsed YAML file holds, by its top-level keys."""
     if isinstance(data, dict) and "model" not in data:
         if "tasks" in data or "stimuli" in data:
             return "study"
@@ -141,27 +136,35 @@ def _yaml_kind(file: Path) -> str:
 
 
 def _validate_one(file: Path) -> tuple[str, str]:
-    """Load ``file`` as the command that takes it would, short of opening a device: (kind, summary)."""
+    """Load ``file`` as the command that takes it would, short of opening a device: (kind, summary).
+
+    A YAML file is parsed once, then built as what its keys say it is; a haptic file stands for an effect."""
+    from ..effect import effect_from_mapping, load_effect, read_yaml
     from ..interfaces import Impact
     from ..pipeline import Pipeline
 
-    kind = _yaml_kind(file)
-    if kind == "scene":  # as `serve` and hapticfx.Engine load it: every entry's pipeline built
-        from ..scene import load_scene
+    if file.suffix.lower() not in (".yaml", ".yml"):
+        kind, effect = "effect", load_effect(file)
+    else:
+        data, where = read_yaml(file), {"source": str(file), "base_dir": file.resolve().parent}
+        kind = _yaml_kind(data)
+        if kind == "scene":  # as `serve` and hapticfx.Engine load it: every entry's pipeline built
+            from ..scene import scene_from_mapping
 
-        scene = load_scene(file)
-        for entry in scene.entries.values():
-            Pipeline(entry.effect)
-        outputs = len({entry.output for entry in scene.entries.values()})
-        return kind, f"scene {scene.name!r}: {len(scene.entries)} objects on {outputs} output(s)"
-    if kind == "study":  # as `study check`: the study, its effects and a participant's schedule
-        from ..study.schedule import build_schedule
-        from ..study.spec import load_study
+            scene = scene_from_mapping(data, **where)
+            for entry in scene.entries.values():
+                Pipeline(entry.effect)
+            outputs = len({entry.output for entry in scene.entries.values()})
+            return kind, f"scene {scene.name!r}: {len(scene.entries)} objects on {outputs} output(s)"
+        if kind == "study":  # as `study check`: the study, its effects and a participant's schedule
+            from ..study.schedule import build_schedule
+            from ..study.spec import study_from_mapping
 
-        study = load_study(file)
-        build_schedule(study, "P01")
-        return kind, f"study {study.name!r}: {len(study.stimuli)} stimuli, {len(study.tasks)} tasks"
-    pipeline = Pipeline.from_effect(file)
+            study = study_from_mapping(data, **where)
+            build_schedule(study, "P01")
+            return kind, f"study {study.name!r}: {len(study.stimuli)} stimuli, {len(study.tasks)} tasks"
+        effect = effect_from_mapping(data, **where)
+    pipeline = Pipeline.from_effect(effect)
     e = pipeline.effect
     for note in pipeline.model.notes(Impact(e.object_id, e.velocity_mps)):  # a haptic file's legacy form, say
         typer.echo(f"hapticfx: warning: {note}", err=True)
