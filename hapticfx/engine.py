@@ -38,6 +38,7 @@ import numpy as np
 
 from .errors import DeviceError, EffectError, HapticfxError, SignalError, one_line, preview
 from .interfaces import Actuator, Impact, valid_vector
+from .interpolators.table import shared_tables
 from .osc import ImpactMessage
 from .pipeline import Delivery, Pipeline, build_actuator, open_actuator
 from .ratelog import RateLimitedLog
@@ -209,7 +210,8 @@ class Engine:
         self._pipelines: dict[str, Pipeline] = {}
         self._outputs: dict[str, _Output] = {}
         self._route: dict[str, _Output] = {}
-        self._build(device, registry, size)
+        with shared_tables():  # entries served from one velocity table file share one copy of it, read once
+            self._build(device, registry, size)
         self._lock = threading.Lock()
         self._callback_errors = 0
         self._close_errors: dict[str, str] = {}

@@ -212,3 +212,41 @@ def test_a_table_weighs_its_nodes_by_the_pull_and_keeps_the_bumps_node_counts(tm
         VelocityTable.load(tmp_path / "odd.table.npz")
     with pytest.raises(ValueError, match="even number >= 2, got 5"):
         _table(affine, [bank], pull_power=5)
+
+
+def test_shared_tables_reads_a_file_once_until_it_changes(tmp_path):
+    from hapticfx.interpolators.table import shared_tables
+
+    path = _table(affine, [_bank()]).save(tmp_path / "t.table.npz")
+    assert VelocityTable.load(path) is not VelocityTable.load(path)  # outside: a table per load
+    with shared_tables():
+        first = VelocityTable.load(path)
+        assert VelocityTable.load(path) is first
+        _table(curved, [_bank()]).save(path)  # rewritten: another size, another modification time
+        assert VelocityTable.load(path) is not first
+    assert VelocityTable.load(path) is not VelocityTable.load(path)
+
+
+def test_an_engine_reads_the_table_its_entries_share_once(monkeypatch):
+    """The four entries of the earthquake room, each served from the built-in dataset's ensemble-warp table,
+    each read it (4 x 6 ms at start); they render what entries built one by one render."""
+    from pathlib import Path
+
+    from hapticfx.engine import Engine
+    from hapticfx.pipeline import Pipeline
+
+    reads, np_load = [], np.load
+
+    def counted(file, *args, **kwargs):
+        reads.append(Path(file).name)
+        return np_load(file, *args, **kwargs)
+
+    monkeypatch.setattr(np, "load", counted)
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "earthquake_room.yaml"
+    with Engine(scene, device="memory") as engine:
+        assert reads.count("ensemble-warp-max-min.table.npz") == 1
+        for oid, pipeline in engine._pipelines.items():
+            alone = Pipeline(pipeline.effect, device="memory")
+            for v in (2.2, 3.3, 5.1):
+                assert np.array_equal(pipeline.render(velocity=v).output.samples,
+                                      alone.render(velocity=v).output.samples), (oid, v)

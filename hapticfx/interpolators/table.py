@@ -36,10 +36,12 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -239,10 +241,22 @@ class VelocityTable:
     @classmethod
     def load(cls, path: str | Path, *, rebuild: str | None = None) -> "VelocityTable":
         """Read and validate a table file; anything malformed is a :class:`CheckpointError` naming it.
-        ``rebuild``: how to write a table that is not there, said when it is not."""
+        ``rebuild``: how to write a table that is not there, said when it is not. Inside :func:`shared_tables`,
+        a file read already (same path, size and modification time) gives the table read then."""
         path = Path(path)
         if not path.is_file():
             raise CheckpointError(f"{path}: velocity table not found" + (f"; {rebuild}" if rebuild else ""))
+        shared = _SHARED.get()
+        if shared is None:
+            return cls._read(path)
+        stat = path.stat()
+        key = (str(path), stat.st_size, stat.st_mtime_ns)
+        if key not in shared:
+            shared[key] = cls._read(path)
+        return shared[key]
+
+    @classmethod
+    def _read(cls, path: Path) -> "VelocityTable":
         try:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
@@ -263,6 +277,21 @@ class VelocityTable:
     def describe(self) -> dict:
         return {"table": self.where, "interpolator": self.meta["interpolator"], "objects": len(self.intervals),
                 "nodes": self.n_nodes, "tolerance": self.meta["tolerance"]}
+
+
+_SHARED: ContextVar[dict | None] = ContextVar("hapticfx_shared_tables", default=None)
+
+
+@contextmanager
+def shared_tables() -> Iterator[None]:
+    """Within the block, :meth:`VelocityTable.load` reads each table file once: an engine builds its scene's
+    entries in one, so that entries served from one dataset's table share one copy (each attaches its own bank).
+    """
+    token = _SHARED.set({})
+    try:
+        yield
+    finally:
+        _SHARED.reset(token)
 
 
 def _intervals(meta: dict, arrays: dict) -> dict[str, list[Interval]]:
@@ -404,4 +433,4 @@ class TableServed(Interpolator):
 
 
 __all__ = ["VelocityTable", "Interval", "TableServed", "neighbours", "build_table", "tabulate_interval",
-           "bank_digest", "DEFAULT_TOLERANCE"]
+           "bank_digest", "shared_tables", "DEFAULT_TOLERANCE"]
