@@ -354,8 +354,8 @@ def test_after_an_underflow_the_buffer_is_lengthened_up_to_max_latency_and_still
 def test_a_longer_buffer_waits_until_nothing_sounds(soundserver):
     """Reopening drops what the old stream held: an impact sounding at the stop is not cut by the switch."""
     with settled_transducer(VibroTransducer.Params(queue=0.0, latency=START_LATENCY_S, max_latency=0.2)) as act:
+        played = time.monotonic()  # before the call: the earliest the sound can start, however long play() takes
         act.play(Signal(np.full(int(0.8 * RATE), 0.1), RATE))
-        played = time.monotonic()
         time.sleep(0.1)
         stop_this_process_until_an_underflow(act)
         act.drain()
