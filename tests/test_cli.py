@@ -66,31 +66,37 @@ def test_wav_into_missing_directory_leaves_nothing(tmp_path, write_effect):
     assert list(tmp_path.iterdir()) == [tmp_path / "effect.yaml"]
 
 
+def plugin_whose_open_raises(tmp_path, name: str, imports: str, raises: str) -> dict:
+    """The environment of an installed (entry-point) actuator plugin ``name`` whose open() runs ``raises``."""
+    site = tmp_path / "site"
+    site.mkdir()
+    fake_distribution(site, dist=f"hfx-{name}", version="0.1", entry_point=name, module=f"hfx_{name}", source=f'''
+        from hapticfx.hookspecs import hookimpl
+        from hapticfx.actuators.virtual import MemoryActuator
+        {imports}
+
+        class Failing(MemoryActuator):
+            """An actuator whose open() fails."""
+            name = "{name}"
+            def open(self):
+                {raises}
+
+        @hookimpl
+        def register_actuators(register):
+            register("{name}", Failing)
+    ''')
+    return {"PYTHONPATH": f"{site}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "HAPTICFX_PLUGINS": name}
+
+
 @pytest.fixture
 def deviceless_plugin(tmp_path):
-    """An installed (entry-point) actuator plugin whose device is absent: open() raises DeviceError.
+    """An installed actuator plugin whose device is absent: open() raises DeviceError.
 
     A stand-in for a sound card on a machine without one; the real sound-card plugin's own
     behaviour with no device is tested in plugins/hapticfx-soundcard.
     """
-    site = tmp_path / "site"
-    site.mkdir()
-    fake_distribution(site, dist="hfx-absent", version="0.1", entry_point="absent", module="hfx_absent", source='''
-        from hapticfx.hookspecs import hookimpl
-        from hapticfx.actuators.virtual import MemoryActuator
-        from hapticfx.errors import DeviceUnavailable
-
-        class Absent(MemoryActuator):
-            """An actuator whose device is never there."""
-            name = "absent"
-            def open(self):
-                raise DeviceUnavailable("no audio output device found")
-
-        @hookimpl
-        def register_actuators(register):
-            register("absent", Absent)
-    ''')
-    return {"PYTHONPATH": f"{site}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "HAPTICFX_PLUGINS": "absent"}
+    return plugin_whose_open_raises(tmp_path, "absent", "from hapticfx.errors import DeviceUnavailable",
+                                    'raise DeviceUnavailable("no audio output device found")')
 
 
 def test_play_without_device_writes_wav_and_png(tmp_path, write_effect, deviceless_plugin):
@@ -115,23 +121,7 @@ def test_play_with_explicit_absent_device_is_an_error(write_effect, deviceless_p
 def test_an_actuator_whose_open_raises_is_one_line_from_serve_and_play(tmp_path):
     """A plugin's bug in open() (not a HapticfxError), in an Engine (serve) or a pipeline (play): one line
     naming the file, the output and the actuator, exit 2, no traceback."""
-    site = tmp_path / "site"
-    site.mkdir()
-    fake_distribution(site, dist="hfx-broken", version="0.1", entry_point="broken", module="hfx_broken", source='''
-        from hapticfx.hookspecs import hookimpl
-        from hapticfx.actuators.virtual import MemoryActuator
-
-        class Broken(MemoryActuator):
-            """An actuator whose open() has a bug."""
-            name = "broken"
-            def open(self):
-                raise RuntimeError("port handle is None")
-
-        @hookimpl
-        def register_actuators(register):
-            register("broken", Broken)
-    ''')
-    env = {"PYTHONPATH": f"{site}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "HAPTICFX_PLUGINS": "broken"}
+    env = plugin_whose_open_raises(tmp_path, "broken", "", 'raise RuntimeError("port handle is None")')
     effect = tmp_path / "e.yaml"
     effect.write_text(KE % "broken")
     scene = tmp_path / "s.yaml"

@@ -287,6 +287,20 @@ def test_a_models_overlong_profile_is_one_error_naming_the_effect(tmp_path, way)
                               "1000 Hz); a profile is at most 120 s and 23040000 samples")
 
 
+def _tracked(calls: list, name: str) -> type:
+    """A memory actuator ``name`` that notes each open() and close() in ``calls``."""
+
+    class Tracked(MemoryActuator):
+        def open(self):
+            calls.append("open")
+
+        def close(self):
+            calls.append("close")
+
+    Tracked.name = name
+    return Tracked
+
+
 def test_an_actuator_whose_open_raises_is_one_error_naming_the_output_and_the_opened_are_closed(tmp_path):
     """A plugin's bug in open() (not a HapticfxError) is a DeviceError naming the scene, the output and the
     actuator; the output opened before it is closed again."""
@@ -294,14 +308,7 @@ def test_an_actuator_whose_open_raises_is_one_error_naming_the_output_and_the_op
 
     calls = []
 
-    class Tracked(MemoryActuator):
-        name = "fx-tracked"
-
-        def open(self):
-            calls.append("open")
-
-        def close(self):
-            calls.append("close")
+    Tracked = _tracked(calls, "fx-tracked")
 
     class Broken(MemoryActuator):
         name = "fx-test"
@@ -326,14 +333,7 @@ def test_a_pipeline_that_fails_after_its_actuator_opened_closes_it_again(tmp_pat
 
     calls = []
 
-    class Tracked(MemoryActuator):
-        name = "fx-test"
-
-        def open(self):
-            calls.append("open")
-
-        def close(self):
-            calls.append("close")
+    Tracked = _tracked(calls, "fx-test")
 
     class LongAtoms(KineticEnergyModel):
         def atoms(self):
