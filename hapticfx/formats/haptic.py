@@ -5,6 +5,11 @@ Hz by the device's ACF). Reading checks every validation rule of the spec; one r
 as Meta's runtime relaxes it in its legacy-compatibility mode: frequency breakpoints after the
 end of the amplitude envelope (as files written by Lofelt Studio have) are accepted with a
 one-line warning and ignored past the end. ``hapticfx validate`` is strict.
+
+Writing keeps the envelope at 0 from an emphasis point until the first millisecond at or after
+its burst ends on the export device (a burst plays over the continuous signal ducked, not
+silenced) and clips and rounds down every amplitude to the impact's peak, as ``.hjif`` does:
+read back on that device, the file stays within the limited impact (tests/test_formats.py).
 """
 
 from __future__ import annotations
@@ -18,9 +23,10 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Emphasis, Pattern
+from .pattern import Curves, Emphasis, Pattern, written
 
 RULES = ".haptic 1.0"
+MILLISECONDS = 1000  # the envelope comes back after a burst on the analysis' 1 ms grid
 
 
 def _r(x: float) -> float:
@@ -40,12 +46,16 @@ class HapticFormat(EnvelopeFormat):
 
     def document(self, pattern: Pattern, options: ExportOptions) -> Any:
         emphasis = {round(e.time_s, 6): e for e in pattern.emphasis}
+        # The burst plays for as long as the 0-1 frequency written says; the envelope stays 0 until it has ended.
+        times, values = pattern.continuous([(e.time_s, e.end_s(options.device, _r(e.frequency)))
+                                            for e in pattern.emphasis], MILLISECONDS)
         amplitude = []
-        for t, a in pattern.amplitude:
-            point = {"time": _r(t), "amplitude": _r(min(max(a, 0.0), 1.0))}
+        for t, a in zip(times, values):
+            point = {"time": _r(t), "amplitude": written(a)}
             e = emphasis.get(round(float(t), 6))
             if e is not None:
-                point["emphasis"] = {"amplitude": _r(max(e.amplitude, point["amplitude"])), "frequency": _r(e.frequency)}
+                point["emphasis"] = {"amplitude": written(max(min(e.amplitude, pattern.peak), a)),
+                                     "frequency": _r(e.frequency)}
             amplitude.append(point)
         end = float(pattern.amplitude[-1, 0])
         frequency = [{"time": _r(min(t, end)), "frequency": _r(min(max(f, 0.0), 1.0))} for t, f in pattern.frequency]

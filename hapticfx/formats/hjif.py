@@ -45,7 +45,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Emphasis, Pattern, grid_size
+from .pattern import Curves, Emphasis, Pattern, grid_size, written
 
 RULES = "HJIF (MPEG reference software)"
 VERSION = "2023"
@@ -66,14 +66,13 @@ class HjifFormat(EnvelopeFormat):
         lo, hi = dev.emphasis_min, dev.emphasis_max
         burst_hz = [int(round(lo.frequency_hz + e.frequency * (hi.frequency_hz - lo.frequency_hz)))
                     for e in pattern.emphasis]
-        t, a = pattern.amplitude[:, 0], np.clip(pattern.amplitude[:, 1], 0.0, min(1.0, pattern.peak))
-        for e, f in zip(pattern.emphasis, burst_hz):
-            t, a = _silent_under(t, a, e.time_s, e.time_s + dev.burst_ms(_burst_frequency(f, dev)) / 1000)
+        t, a = pattern.continuous([(e.time_s, e.end_s(dev, _burst_frequency(f, dev)))
+                                   for e, f in zip(pattern.emphasis, burst_hz)], TIMESCALE)
         hz = dev.hz(np.interp(t, pattern.frequency[:, 0], pattern.frequency[:, 1]) if len(pattern.frequency)
                     else np.full(len(t), 0.5))
         ticks = np.round(t * TIMESCALE).astype(int)
         keep = np.concatenate(([True], np.diff(ticks) > 0))
-        keyframes = [{"relative_position": int(p), "amplitude_modulation": _written(v),
+        keyframes = [{"relative_position": int(p), "amplitude_modulation": written(v),
                       "frequency_modulation": int(round(f))} for p, v, f in zip(ticks[keep], a[keep], hz[keep])]
         bands = [{"band_type": "VectorialWave", "curve_type": "Linear",
                   "lower_frequency_limit": int(np.floor(dev.frequency_min_hz)),
@@ -87,7 +86,7 @@ class HjifFormat(EnvelopeFormat):
                           "effects": [{"id": i + 1, "effect_type": "Basis", "position": int(round(e.time_s * TIMESCALE)),
                                        "phase": 0.0, "base_signal": "Sine", "keyframes": [{
                                            "relative_position": 0,
-                                           "amplitude_modulation": _written(min(e.amplitude, pattern.peak)),
+                                           "amplitude_modulation": written(min(e.amplitude, pattern.peak)),
                                            "frequency_modulation": f}]}
                                       for i, (e, f) in enumerate(zip(pattern.emphasis, burst_hz))]})
         return {"version": VERSION, "profile": "Main", "level": 1, "date": date.today().isoformat(),
@@ -215,19 +214,3 @@ def _burst_frequency(hz: float, device: Device) -> float:
     lo, hi = device.emphasis_min.frequency_hz, device.emphasis_max.frequency_hz
     return float(np.clip((hz - lo) / (hi - lo), 0, 1)) if hi > lo else 0.5
 
-
-def _written(amplitude: float) -> float:
-    """An amplitude as the file holds it: 6 decimals, rounded down, so that no reading exceeds what was analysed."""
-    return float(np.floor(amplitude * 1e6) / 1e6)
-
-
-def _silent_under(t: np.ndarray, a: np.ndarray, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
-    """Amplitude breakpoints ``(t, a)`` held at 0 from ``start`` to the first tick at or after ``end`` (a burst's
-    last sample as the reader plays it), back on their line one tick later. The continuous signal is only ducked
-    under a burst: where the two overlapped, they added up past the impact's peak."""
-    stop = np.ceil(end * TIMESCALE) / TIMESCALE
-    back = min(stop + 1 / TIMESCALE, t[-1])
-    resume = [back] if back > stop else []  # none where the burst outlasts the breakpoints
-    before, after = t < start, t > back
-    return (np.concatenate((t[before], [start, stop], resume, t[after])),
-            np.concatenate((a[before], [0.0, 0.0], np.interp(resume, t, a), a[after])))

@@ -36,6 +36,10 @@ class Emphasis:
     amplitude: float
     frequency: float
 
+    def end_s(self, device, frequency: float | None = None) -> float:
+        """When the burst stops playing on ``device``, at 0-1 ``frequency`` (default its own: a file may round it)."""
+        return self.time_s + device.burst_ms(self.frequency if frequency is None else frequency) / 1000
+
 
 @dataclass(frozen=True)
 class Pattern:
@@ -53,6 +57,20 @@ class Pattern:
     def duration_s(self) -> float:
         return float(self.amplitude[-1, 0])
 
+    def continuous(self, bursts, ticks_per_s: int) -> tuple[np.ndarray, np.ndarray]:
+        """The amplitude breakpoints ``(t, a)`` a file may carry beside its emphasis: clipped to :attr:`peak`, and 0
+        from each burst's start to the first tick (``1 / ticks_per_s``) at or after its end, back on their line one
+        tick later.
+
+        ``bursts`` are ``(start s, end s)`` as the reader plays them (the end from what the file says of the burst).
+        A burst is played over the continuous signal ducked, not silenced: where the two overlapped, they added up
+        past the impact's peak.
+        """
+        t, a = self.amplitude[:, 0], np.clip(self.amplitude[:, 1], 0.0, min(1.0, self.peak))
+        for start, end in bursts:
+            t, a = _silent_under(t, a, start, end, ticks_per_s)
+        return t, a
+
     def curves(self, rate_hz: float, source: str = "<pattern>") -> "Curves":
         """The envelopes sampled at ``rate_hz`` from 0 to the last amplitude breakpoint (held before and after)."""
         n = grid_size(self.duration_s, rate_hz, source)
@@ -60,6 +78,23 @@ class Pattern:
         amp = _linear(self.amplitude, t)
         freq = _linear(self.frequency, t) if len(self.frequency) else np.full(n, DEFAULT_FREQUENCY)
         return Curves(rate_hz, amp, freq, self.emphasis)
+
+
+def written(amplitude: float) -> float:
+    """An amplitude as a file holds it: 6 decimals, rounded down, so that no reading exceeds what was analysed."""
+    return float(np.floor(amplitude * 1e6) / 1e6)
+
+
+def _silent_under(t: np.ndarray, a: np.ndarray, start: float, end: float,
+                  ticks_per_s: int) -> tuple[np.ndarray, np.ndarray]:
+    """Breakpoints ``(t, a)`` held at 0 from ``start`` to the first tick at or after ``end`` (a burst's last sample
+    as the reader plays it), back on their line one tick later."""
+    stop = np.ceil(end * ticks_per_s) / ticks_per_s
+    back = min(stop + 1 / ticks_per_s, t[-1])
+    resume = [back] if back > stop else []  # none where the burst outlasts the breakpoints
+    before, after = t < start, t > back
+    return (np.concatenate((t[before], [start, stop], resume, t[after])),
+            np.concatenate((a[before], [0.0, 0.0], np.interp(resume, t, a), a[after])))
 
 
 def _linear(points: np.ndarray, t: np.ndarray) -> np.ndarray:
