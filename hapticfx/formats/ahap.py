@@ -12,7 +12,11 @@ sharpness 0, shaped by ``HapticIntensityControl`` curves (multiplicative, 0-1) a
 ``HapticSharpnessControl`` curves (additive, -1-1), at most 16 control points each (consecutive
 curves continue one another; Core Haptics is reported to refuse longer curves); an onset
 emphasis becomes a ``HapticTransient``. A parameter curve applies to every event of a pattern,
-transients included, so the intensity curve holds the transient's level at its instant.
+transients included, so the intensity curve holds the transient's level at its instant; a burst plays
+over a continuous event ducked, not silenced, so no continuous event plays from just before the
+transient until the first millisecond at or after its burst ends on the export device (the curve
+rises back over the next), and intensities are clipped to the impact's peak and rounded down: read
+back on that device, the file stays within the limited impact (tests/test_formats.py).
 
 **Reading** as Core Haptics does: JSON5 (trailing commas, comments), missing keys set to
 defaults (intensity 1, sharpness 0.5, time 0: Apple states no defaults for these; we chose the
@@ -36,7 +40,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Emphasis, Pattern, grid_size
+from .pattern import Curves, Emphasis, Pattern, first_tick, grid_size, written
 
 RULES = "AHAP"
 MAX_CONTINUOUS_S = 30.0
@@ -44,6 +48,8 @@ MAX_CURVE_POINTS = 16
 AUDIO_EVENTS = ("AudioCustom", "AudioContinuous")
 CONTROLS = {"HapticIntensityControl": (0.0, 1.0, 1.0), "HapticSharpnessControl": (-1.0, 1.0, 0.0)}
 DEFAULTS = {"HapticIntensity": 1.0, "HapticSharpness": 0.5}
+MILLISECONDS = 1000  # the envelope comes back after a burst on the analysis' 1 ms grid
+EARLY_S = 0.00005  # a reader starts a burst on its nearest sample: up to 50 us early at 10 kHz or more (whole-ms times: on time at whole kHz)
 
 
 def _r(x: float) -> float:
@@ -75,35 +81,37 @@ class AhapFormat(EnvelopeFormat):
     lenient = True
 
     def document(self, pattern: Pattern, options: ExportOptions) -> Any:
-        times = pattern.amplitude[:, 0].astype(float)
-        intensity = np.sqrt(np.clip(pattern.amplitude[:, 1], 0.0, 1.0))
-        transients = []
+        dev = options.device
         f = pattern.frequency
-        for e in pattern.emphasis:
-            shift = float(np.interp(e.time_s, f[:, 0], np.sqrt(np.clip(f[:, 1], 0.0, 1.0)))) if len(f) else 0.0
-            # Curves scale transients too: hold the transient's level at its instant, back to the envelope 1 ms on.
-            i = int(np.argmin(np.abs(times - e.time_s)))
-            after = times[i] + 0.001
-            level = float(np.sqrt(np.clip(e.amplitude, 0.0, 1.0)))
-            if i + 1 < len(times) and times[i + 1] <= after:
-                intensity[i] = max(intensity[i], level)
-            else:
-                times = np.insert(times, i + 1, after)
-                intensity = np.insert(intensity, i + 1, intensity[i])
-                intensity[i] = max(intensity[i], level)
+        shifts = [float(np.interp(e.time_s, f[:, 0], np.sqrt(np.clip(f[:, 1], 0.0, 1.0)))) if len(f) else 0.0
+                  for e in pattern.emphasis]
+        sharpness = [_r(np.clip(np.sqrt(np.clip(e.frequency, 0.0, 1.0)) - shift, 0.0, 1.0))  # the curve adds to it
+                     for e, shift in zip(pattern.emphasis, shifts)]
+        # What the burst plays at (and so how long it lasts): the sharpness written plus the curve's, squared.
+        ends = [e.end_s(dev, float(np.clip(s + shift, 0.0, 1.0)) ** 2)
+                for e, s, shift in zip(pattern.emphasis, sharpness, shifts)]
+        times, amplitude = pattern.continuous([(e.time_s, end) for e, end in zip(pattern.emphasis, ends)], MILLISECONDS)
+        intensity = np.sqrt(amplitude)
+        transients = []
+        gaps = []
+        for e, s, end in zip(pattern.emphasis, sharpness, ends):
+            # Curves scale transients too: the intensity curve holds the transient's level at its instant, and no
+            # continuous event plays from just before it until the envelope comes back after the burst.
+            intensity[np.flatnonzero(times == e.time_s)[0]] = np.sqrt(min(e.amplitude, pattern.peak, 1.0))
+            gaps.append((e.time_s - EARLY_S, first_tick(end, MILLISECONDS)))
             transients.append({"Event": {"Time": _r(e.time_s), "EventType": "HapticTransient", "EventParameters": [
-                {"ParameterID": "HapticIntensity", "ParameterValue": _r(min(1.0, level / max(intensity[i], 1e-9)))},
-                {"ParameterID": "HapticSharpness",  # the sharpness curve adds to it
-                 "ParameterValue": _r(np.clip(np.sqrt(np.clip(e.frequency, 0.0, 1.0)) - shift, 0.0, 1.0))}]}})
+                {"ParameterID": "HapticIntensity", "ParameterValue": 1.0},
+                {"ParameterID": "HapticSharpness", "ParameterValue": s}]}})
+        intensity = np.array([written(v) for v in intensity])
         total = float(times[-1])
         events = []
-        start = 0.0
-        while start < total or not events:
-            events.append({"Event": {"Time": _r(start), "EventType": "HapticContinuous",
-                                     "EventDuration": _r(min(MAX_CONTINUOUS_S, total - start)), "EventParameters": [
-                                         {"ParameterID": "HapticIntensity", "ParameterValue": 1.0},
-                                         {"ParameterID": "HapticSharpness", "ParameterValue": 0.0}]}})
-            start += MAX_CONTINUOUS_S
+        for start, stop in _spans(total, gaps):
+            while start < stop or not events and not gaps:  # a pattern without a transient has one event at least
+                events.append({"Event": {"Time": _r(start), "EventType": "HapticContinuous",
+                                         "EventDuration": _r(min(MAX_CONTINUOUS_S, stop - start)), "EventParameters": [
+                                             {"ParameterID": "HapticIntensity", "ParameterValue": 1.0},
+                                             {"ParameterID": "HapticSharpness", "ParameterValue": 0.0}]}})
+                start += MAX_CONTINUOUS_S
         pattern_entries = events + _curves("HapticIntensityControl", times, intensity)
         if len(f):
             pattern_entries += _curves("HapticSharpnessControl", f[:, 0], np.sqrt(np.clip(f[:, 1], 0.0, 1.0)))
@@ -237,6 +245,18 @@ class AhapFormat(EnvelopeFormat):
         if ignored:
             notes.append(f"{source}: ignored, as Core Haptics ignores unsupported keys: {', '.join(sorted(ignored))}")
         return Curves(rate_hz, np.minimum(amplitude, 1.0), frequency, tuple(sorted(emphasis, key=lambda e: e.time_s))), notes
+
+
+def _spans(total: float, gaps: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The parts of 0-``total`` outside ``gaps`` (0-``total`` itself where there are none)."""
+    spans, start = [], 0.0
+    for lo, hi in sorted(gaps):
+        if lo > start:
+            spans.append((start, lo))
+        start = max(start, hi)
+    if start < total or not gaps:
+        spans.append((start, max(total, start)))
+    return spans
 
 
 def _name(r: Reader, node: Any, where: str) -> str:

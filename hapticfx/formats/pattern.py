@@ -85,11 +85,16 @@ def written(amplitude: float) -> float:
     return float(np.floor(amplitude * 1e6) / 1e6)
 
 
+def first_tick(time_s: float, ticks_per_s: int) -> float:
+    """The first tick (``1 / ticks_per_s``) at or after ``time_s``: where the envelope may come back after a burst."""
+    return float(np.ceil(time_s * ticks_per_s) / ticks_per_s)
+
+
 def _silent_under(t: np.ndarray, a: np.ndarray, start: float, end: float,
                   ticks_per_s: int) -> tuple[np.ndarray, np.ndarray]:
     """Breakpoints ``(t, a)`` held at 0 from ``start`` to the first tick at or after ``end`` (a burst's last sample
     as the reader plays it), back on their line one tick later."""
-    stop = np.ceil(end * ticks_per_s) / ticks_per_s
+    stop = first_tick(end, ticks_per_s)
     back = min(stop + 1 / ticks_per_s, t[-1])
     resume = [back] if back > stop else []  # none where the burst outlasts the breakpoints
     before, after = t < start, t > back
