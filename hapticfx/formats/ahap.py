@@ -40,7 +40,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Emphasis, Pattern, first_tick, grid_size, written
+from .pattern import MILLISECONDS, Curves, Emphasis, Pattern, first_tick, grid_size, written
 
 RULES = "AHAP"
 MAX_CONTINUOUS_S = 30.0
@@ -48,7 +48,6 @@ MAX_CURVE_POINTS = 16
 AUDIO_EVENTS = ("AudioCustom", "AudioContinuous")
 CONTROLS = {"HapticIntensityControl": (0.0, 1.0, 1.0), "HapticSharpnessControl": (-1.0, 1.0, 0.0)}
 DEFAULTS = {"HapticIntensity": 1.0, "HapticSharpness": 0.5}
-MILLISECONDS = 1000  # the envelope comes back after a burst on the analysis' 1 ms grid
 EARLY_S = 0.00005  # a reader starts a burst on its nearest sample: up to 50 us early at 10 kHz or more (whole-ms times: on time at whole kHz)
 
 

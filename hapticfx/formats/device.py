@@ -47,6 +47,10 @@ class Device:
         """0-1 frequency to Hz (linear, as Meta's continuous oscillator maps it)."""
         return self.frequency_min_hz + normalised * (self.frequency_max_hz - self.frequency_min_hz)
 
+    def burst_hz(self, normalised: float) -> float:
+        """The frequency (Hz) of the emphasis burst at 0-1 frequency ``normalised``, as Meta's renderer plays it."""
+        return self.emphasis_min.frequency_hz + normalised * (self.emphasis_max.frequency_hz - self.emphasis_min.frequency_hz)
+
     def burst_ms(self, normalised: float) -> float:
         """The length (ms) of the emphasis burst at 0-1 frequency ``normalised``, as Meta's renderer plays it."""
         return self.emphasis_min.duration_ms + normalised * (self.emphasis_max.duration_ms - self.emphasis_min.duration_ms)

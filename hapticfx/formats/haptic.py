@@ -23,10 +23,9 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Emphasis, Pattern, written
+from .pattern import MILLISECONDS, Curves, Emphasis, Pattern, written
 
 RULES = ".haptic 1.0"
-MILLISECONDS = 1000  # the envelope comes back after a burst on the analysis' 1 ms grid
 
 
 def _r(x: float) -> float:

@@ -64,8 +64,7 @@ class HjifFormat(EnvelopeFormat):
     def document(self, pattern: Pattern, options: ExportOptions) -> Any:
         dev = options.device
         lo, hi = dev.emphasis_min, dev.emphasis_max
-        burst_hz = [int(round(lo.frequency_hz + e.frequency * (hi.frequency_hz - lo.frequency_hz)))
-                    for e in pattern.emphasis]
+        burst_hz = [int(round(dev.burst_hz(e.frequency))) for e in pattern.emphasis]
         t, a = pattern.continuous([(e.time_s, e.end_s(dev, _burst_frequency(f, dev)))
                                    for e, f in zip(pattern.emphasis, burst_hz)], TIMESCALE)
         hz = dev.hz(np.interp(t, pattern.frequency[:, 0], pattern.frequency[:, 1]) if len(pattern.frequency)
@@ -213,4 +212,3 @@ def _burst_frequency(hz: float, device: Device) -> float:
     """A ``Transient`` effect's Hz as the 0-1 emphasis frequency ``device`` plays it at (its length follows)."""
     lo, hi = device.emphasis_min.frequency_hz, device.emphasis_max.frequency_hz
     return float(np.clip((hz - lo) / (hi - lo), 0, 1)) if hi > lo else 0.5
-

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..signal import MAX_PROFILE_S
 
+MILLISECONDS = 1000  # ticks a second of the analysis' 1 ms grid, where an envelope comes back after a burst
 DEFAULT_FREQUENCY = 0.5  # the .haptic spec's default when the frequency envelope is empty
 MAX_DURATION_S = MAX_PROFILE_S  # what one file may ask hapticfx to render: a profile (AHAP's continuous events: 30 s)
 

@@ -44,7 +44,7 @@ def synthesize(curves: Curves, device: Device) -> np.ndarray:
     lo, hi = device.emphasis_min, device.emphasis_max
     for e in curves.emphasis:
         s = float(np.clip(e.frequency, 0.0, 1.0))
-        freq = lo.frequency_hz + s * (hi.frequency_hz - lo.frequency_hz)
+        freq = device.burst_hz(s)
         dur = device.burst_ms(s) / 1000.0
         start = max(0, int(round(e.time_s * rate)))  # a burst before the start plays at the start
         count = max(1, int(round(dur * rate)))
