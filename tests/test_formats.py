@@ -90,14 +90,15 @@ def test_silence_and_a_clipped_signal_stay_bounded(tmp_path):
             assert np.all(np.isfinite(decoded.signal.samples)) and np.max(np.abs(decoded.signal.samples)) <= 1.0 + 1e-9
 
 
-@pytest.mark.parametrize("name", ["haptic", "ahap", "hjif"])
+@pytest.mark.parametrize("name", ["haptic", "ahap", "hjif", "android"])
 @pytest.mark.parametrize("device", ["quest", "console-pcm"])
 @pytest.mark.parametrize("f, decay_s", [(40.0, 0.5), (120.0, 0.5), (160.0, 0.15), (160.0, 0.5), (200.0, 0.03),
                                         (200.0, 0.15), (200.0, 0.5)])
 def test_never_reads_back_above_the_impacts_peak(tmp_path, name, device, f, decay_s):
     """What reaches a device through the file stays within the limited impact. The continuous signal came back
     while the onset burst still played, ducked but adding to it: a slow 0.3 decay read back at up to 0.38 (hjif)
-    and 0.40 (.haptic); an envelope above the peak (a 40 Hz carrier's ripple) read back above it."""
+    and 0.40 (.haptic); an envelope above the peak (a 40 Hz carrier's ripple) read back above it (Android: 1.09x,
+    and 1.01-1.02x on every 0.5 s decay). Android's waveform, the reading where a file holds no envelope, too."""
     dev = PRESETS[device]
     fmt = format_named(name)
     for rate in (RATE, 22050.0, 44100.0, 48000.0):
@@ -105,6 +106,11 @@ def test_never_reads_back_above_the_impacts_peak(tmp_path, name, device, f, deca
         path = tmp_path / f"x{fmt.suffixes[0]}"
         fmt.write(path, x, ExportOptions(device=dev))
         assert np.abs(fmt.read(path, dev, rate_hz=rate).signal.samples).max() <= np.abs(x.samples).max()
+        if name == "android":
+            doc = json.loads(path.read_text())
+            del doc["envelope"]
+            path.write_text(json.dumps(doc))
+            assert np.abs(fmt.read(path, dev, rate_hz=rate).signal.samples).max() <= np.abs(x.samples).max()
 
 
 def test_the_frequency_maps_onto_the_device_range():

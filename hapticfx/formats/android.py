@@ -30,7 +30,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import Curves, Pattern, grid_size
+from .pattern import MILLISECONDS, Curves, Pattern, grid_size, written
 
 RULES = "Android VibrationEffect"
 DEFAULT_AMPLITUDE = 0.5
@@ -45,13 +45,12 @@ class AndroidFormat(EnvelopeFormat):
     description = "Android VibrationEffect waveform and API 36 envelope (arguments as JSON)"
 
     def document(self, pattern: Pattern, options: ExportOptions) -> Any:
-        t = pattern.amplitude[:, 0]
-        a = np.clip(pattern.amplitude[:, 1], 0.0, 1.0)
+        t, a = pattern.continuous((), MILLISECONDS)  # no burst: clipped to the impact's peak
         ms = np.round(t * 1000).astype(int)
         first = np.flatnonzero(np.concatenate(([True], np.diff(ms) > 0)))  # breakpoints a millisecond apart,
         ms, a, t = ms[first], np.maximum.reduceat(a, first), t[first]    # each the loudest of its millisecond
         timings = np.diff(ms).tolist()
-        steps = np.round(255 * 0.5 * (a[:-1] + a[1:])).astype(int).tolist()
+        steps = np.floor(255 * 0.5 * (a[:-1] + a[1:])).astype(int).tolist()  # down: never above the peak
         if a[0] > 0 and len(ms) > 1 and ms[1] - ms[0] > 1:  # the envelope starts at 0: rise to a[0] in 1 ms
             ms, a, t = np.insert(ms, 1, ms[0] + 1), np.insert(a, 1, a[0]), np.insert(t, 1, t[0] + 1e-3)
             a[0] = 0.0
@@ -59,7 +58,7 @@ class AndroidFormat(EnvelopeFormat):
             ms, a, t = np.r_[ms[0], ms + 1], np.r_[0.0, a], np.r_[t[0], t + 1e-3]
         hz = options.device.hz(np.interp(t, pattern.frequency[:, 0], pattern.frequency[:, 1])
                                if len(pattern.frequency) else np.full(len(t), 0.5))
-        points = [{"amplitude": round(float(a[i]), 6), "frequencyHz": round(float(hz[i]), 3),
+        points = [{"amplitude": written(a[i]), "frequencyHz": round(float(hz[i]), 3),
                    "durationMillis": int(ms[i] - ms[i - 1])} for i in range(1, len(ms))]
         return {"format": "android.os.VibrationEffect", "editor": f"hapticfx {__version__}",
                 "device": options.device.name, "description": options.description,
