@@ -40,7 +40,7 @@ from .errors import DeviceError, EffectError, HapticfxError, SignalError, one_li
 from .interfaces import Actuator, Impact, valid_vector
 from .interpolators.table import shared_tables
 from .osc import ImpactMessage
-from .pipeline import Delivery, Pipeline, build_actuator, open_actuator
+from .pipeline import Delivery, Pipeline, build_actuator, close_after_failure, open_actuator
 from .ratelog import RateLimitedLog
 from .registry import Registry
 from .safety import SafetyLimiter
@@ -286,9 +286,8 @@ class Engine:
                 out.arm()
                 for pipeline in out.pipelines:  # shape and limit at the rate the device agreed on
                     pipeline.adopt(out.actuator)
-        except BaseException:
-            for actuator in opened:
-                actuator.close()
+        except BaseException as exc:
+            close_after_failure(opened, exc)
             raise
 
     # --- the caller's side ------------------------------------------------------

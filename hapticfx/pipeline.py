@@ -89,6 +89,16 @@ def _who(actuator: Actuator) -> str:
     return f"actuator {getattr(actuator, 'name', type(actuator).__name__)!r}"
 
 
+def close_after_failure(actuators, error: BaseException) -> None:
+    """Close ``actuators`` after ``error`` stopped them from opening. A close that raises too is noted on
+    ``error``, which stays the one raised: it says why nothing plays."""
+    for actuator in actuators:
+        try:
+            actuator.close()
+        except Exception as exc:
+            error.add_note(f"{_who(actuator)} also failed to close: {type(exc).__name__}: {exc}")
+
+
 def check_spec(actuator: Actuator) -> None:
     """Refuse an actuator whose spec the core cannot trust: a rate, range, band or gain out of bounds, or hard
     limits that are not the core's own :class:`SafetyLimits` (a subclass may skip their checks)."""
@@ -130,8 +140,8 @@ def open_actuator(actuator: Actuator, *, source: str | None = None, key: str | N
         if actuator.spec.limits != limits:
             raise PluginError(f"{_who(actuator)} changed its hard limits when it opened; an actuator declares "
                               "them before")
-    except PluginError:
-        actuator.close()
+    except PluginError as exc:
+        close_after_failure([actuator], exc)
         raise
 
 
@@ -187,8 +197,8 @@ class Pipeline:
             open_actuator(self.actuator, source=self.effect.source, key="actuator")
             try:
                 self.adopt(self.actuator)
-            except BaseException:  # the model's atoms, say: nothing is left open
-                self.actuator.close()
+            except BaseException as exc:  # the model's atoms, say: nothing is left open
+                close_after_failure([self.actuator], exc)
                 raise
             self._opened = True
         return self

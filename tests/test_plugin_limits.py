@@ -346,3 +346,76 @@ def test_a_pipeline_that_fails_after_its_actuator_opened_closes_it_again(tmp_pat
     with pytest.raises(PluginError, match="a profile is at most 120 s"):
         pipeline.open()
     assert calls == ["open", "close"]
+
+
+def test_a_close_that_fails_after_a_failed_open_does_not_hide_why_it_failed(tmp_path):
+    """The pipeline's open fails (atoms too long), then its actuator's close() raises as well: the error raised is
+    still the first, with the failed close as its note."""
+    from hapticfx.interfaces import Term, Terms
+    from hapticfx.models.kinetic import KineticEnergyModel
+
+    class BadClose(MemoryActuator):
+        name = "fx-test"
+
+        def close(self):
+            raise RuntimeError("port already gone")
+
+    class LongAtoms(KineticEnergyModel):
+        def atoms(self):
+            return Terms(1000.0, (Term("long", 1.0, np.zeros(130_000)),))  # 130 s
+
+    path = tmp_path / "e.yaml"
+    path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-long}\nactuator: {type: fx-test}\n")
+    pipeline = Pipeline.from_effect(path, registry=_registry(models={"fx-long": LongAtoms},
+                                                             actuators={"fx-test": BadClose}))
+    with pytest.raises(PluginError, match="a profile is at most 120 s") as err:
+        pipeline.open()
+    assert err.value.__notes__ == ["actuator 'fx-test' also failed to close: RuntimeError: port already gone"]
+
+
+def test_the_cli_line_carries_a_note_of_a_failed_clean_up(monkeypatch, capsys):
+    """The command's error and the note on it, one line, exit 2."""
+    import typer
+
+    import hapticfx.cli as cli
+    from hapticfx.errors import DeviceError
+
+    def failing():
+        exc = DeviceError("actuator 'fx-test' failed to open: RuntimeError: port handle is None")
+        exc.add_note("actuator 'fx-tracked' also failed to close: RuntimeError: port already gone")
+        raise exc
+
+    app = typer.Typer()
+    app.callback()(lambda: None)  # a group, as hapticfx's own app is
+    app.command("go")(failing)
+    monkeypatch.setattr(cli, "build_app", lambda: app)
+    with pytest.raises(SystemExit) as done:
+        cli.main(["go"])
+    assert done.value.code == 2
+    assert capsys.readouterr().err == ("hapticfx: error: actuator 'fx-test' failed to open: RuntimeError: port handle is "
+                                       "None; actuator 'fx-tracked' also failed to close: RuntimeError: port already gone\n")
+
+
+def test_an_engine_whose_cleanup_fails_still_raises_why_it_could_not_open(tmp_path):
+    """The second output's open() raises; closing the first raises too: the DeviceError of the open is raised."""
+    from hapticfx.errors import DeviceError
+
+    class BadClose(MemoryActuator):
+        name = "fx-tracked"
+
+        def close(self):
+            raise RuntimeError("port already gone")
+
+    class Broken(MemoryActuator):
+        name = "fx-test"
+
+        def open(self):
+            raise RuntimeError("port handle is None")
+
+    _effect(tmp_path)
+    (tmp_path / "t.yaml").write_text(f"name: t\nobject: concrete-brick\nmodel: {KE}\nactuator: {{type: fx-tracked}}\n")
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: s\neffects:\n  first: t.yaml\n  brick: e.yaml\n")
+    with pytest.raises(DeviceError, match="failed to open: RuntimeError: port handle is None") as err:
+        Engine(scene, registry=_registry(actuators={"fx-test": Broken, "fx-tracked": BadClose}))
+    assert err.value.__notes__ == ["actuator 'fx-tracked' also failed to close: RuntimeError: port already gone"]

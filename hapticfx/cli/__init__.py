@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> None:
     except HapticfxError as exc:
         if debug:
             traceback.print_exc()
-        error(str(exc))
+        error(one_line("; ".join([str(exc), *getattr(exc, "__notes__", ())])))  # a failed clean-up, say
         code = 2
     except OSError as exc:  # the machine's, not the program's: a full disk, a read-only or missing directory
         if debug:
