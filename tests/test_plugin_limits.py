@@ -304,11 +304,16 @@ def _tracked(calls: list, name: str) -> type:
 def test_an_actuator_whose_open_raises_is_one_error_naming_the_output_and_the_opened_are_closed(tmp_path):
     """A plugin's bug in open() (not a HapticfxError) is a DeviceError naming the scene, the output and the
     actuator; the output opened before it is closed again."""
-    from hapticfx.errors import DeviceError
-
     calls = []
+    scene, err = _second_output_fails(tmp_path, _tracked(calls, "fx-tracked"))
+    assert str(err) == f"{scene}: brick: actuator 'fx-test' failed to open: RuntimeError: port handle is None"
+    assert calls == ["open", "close"]
 
-    Tracked = _tracked(calls, "fx-tracked")
+
+def _second_output_fails(tmp_path, first: type):
+    """A scene of two outputs, the first played by ``first`` (as ``fx-tracked``), the second by an actuator whose
+    open() has a plugin's bug: the scene's path and the DeviceError of building its Engine."""
+    from hapticfx.errors import DeviceError
 
     class Broken(MemoryActuator):
         name = "fx-test"
@@ -321,19 +326,15 @@ def test_an_actuator_whose_open_raises_is_one_error_naming_the_output_and_the_op
     scene = tmp_path / "s.yaml"
     scene.write_text("name: s\neffects:\n  first: t.yaml\n  brick: e.yaml\n")
     with pytest.raises(DeviceError) as err:
-        Engine(scene, registry=_registry(actuators={"fx-test": Broken, "fx-tracked": Tracked}))
-    assert str(err.value) == f"{scene}: brick: actuator 'fx-test' failed to open: RuntimeError: port handle is None"
-    assert calls == ["open", "close"]
+        Engine(scene, registry=_registry(actuators={"fx-test": Broken, "fx-tracked": first}))
+    return scene, err.value
 
 
-def test_a_pipeline_that_fails_after_its_actuator_opened_closes_it_again(tmp_path):
-    """The model's atoms, shaped once the actuator is open, are refused (too long): the actuator is closed."""
+def _open_with_too_long_atoms(tmp_path, actuator: type) -> PluginError:
+    """Open a pipeline played by ``actuator`` (as ``fx-test``) whose model's atoms, shaped once the actuator is
+    open, are refused (130 s): the error its open() raises."""
     from hapticfx.interfaces import Term, Terms
     from hapticfx.models.kinetic import KineticEnergyModel
-
-    calls = []
-
-    Tracked = _tracked(calls, "fx-test")
 
     class LongAtoms(KineticEnergyModel):
         def atoms(self):
@@ -342,17 +343,22 @@ def test_a_pipeline_that_fails_after_its_actuator_opened_closes_it_again(tmp_pat
     path = tmp_path / "e.yaml"
     path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-long}\nactuator: {type: fx-test}\n")
     pipeline = Pipeline.from_effect(path, registry=_registry(models={"fx-long": LongAtoms},
-                                                             actuators={"fx-test": Tracked}))
-    with pytest.raises(PluginError, match="a profile is at most 120 s"):
+                                                             actuators={"fx-test": actuator}))
+    with pytest.raises(PluginError, match="a profile is at most 120 s") as err:
         pipeline.open()
+    return err.value
+
+
+def test_a_pipeline_that_fails_after_its_actuator_opened_closes_it_again(tmp_path):
+    """The model's atoms, shaped once the actuator is open, are refused (too long): the actuator is closed."""
+    calls = []
+    _open_with_too_long_atoms(tmp_path, _tracked(calls, "fx-test"))
     assert calls == ["open", "close"]
 
 
 def test_a_close_that_fails_after_a_failed_open_does_not_hide_why_it_failed(tmp_path):
     """The pipeline's open fails (atoms too long), then its actuator's close() raises as well: the error raised is
     still the first, with the failed close as its note."""
-    from hapticfx.interfaces import Term, Terms
-    from hapticfx.models.kinetic import KineticEnergyModel
 
     class BadClose(MemoryActuator):
         name = "fx-test"
@@ -360,17 +366,8 @@ def test_a_close_that_fails_after_a_failed_open_does_not_hide_why_it_failed(tmp_
         def close(self):
             raise RuntimeError("port already gone")
 
-    class LongAtoms(KineticEnergyModel):
-        def atoms(self):
-            return Terms(1000.0, (Term("long", 1.0, np.zeros(130_000)),))  # 130 s
-
-    path = tmp_path / "e.yaml"
-    path.write_text("name: e\nobject: concrete-brick\nmodel: {type: fx-long}\nactuator: {type: fx-test}\n")
-    pipeline = Pipeline.from_effect(path, registry=_registry(models={"fx-long": LongAtoms},
-                                                             actuators={"fx-test": BadClose}))
-    with pytest.raises(PluginError, match="a profile is at most 120 s") as err:
-        pipeline.open()
-    assert err.value.__notes__ == ["actuator 'fx-test' also failed to close: RuntimeError: port already gone"]
+    err = _open_with_too_long_atoms(tmp_path, BadClose)
+    assert err.__notes__ == ["actuator 'fx-test' also failed to close: RuntimeError: port already gone"]
 
 
 def test_the_cli_line_carries_a_note_of_a_failed_clean_up(monkeypatch, capsys):
@@ -398,24 +395,12 @@ def test_the_cli_line_carries_a_note_of_a_failed_clean_up(monkeypatch, capsys):
 
 def test_an_engine_whose_cleanup_fails_still_raises_why_it_could_not_open(tmp_path):
     """The second output's open() raises; closing the first raises too: the DeviceError of the open is raised."""
-    from hapticfx.errors import DeviceError
-
     class BadClose(MemoryActuator):
         name = "fx-tracked"
 
         def close(self):
             raise RuntimeError("port already gone")
 
-    class Broken(MemoryActuator):
-        name = "fx-test"
-
-        def open(self):
-            raise RuntimeError("port handle is None")
-
-    _effect(tmp_path)
-    (tmp_path / "t.yaml").write_text(f"name: t\nobject: concrete-brick\nmodel: {KE}\nactuator: {{type: fx-tracked}}\n")
-    scene = tmp_path / "s.yaml"
-    scene.write_text("name: s\neffects:\n  first: t.yaml\n  brick: e.yaml\n")
-    with pytest.raises(DeviceError, match="failed to open: RuntimeError: port handle is None") as err:
-        Engine(scene, registry=_registry(actuators={"fx-test": Broken, "fx-tracked": BadClose}))
-    assert err.value.__notes__ == ["actuator 'fx-tracked' also failed to close: RuntimeError: port already gone"]
+    _, err = _second_output_fails(tmp_path, BadClose)
+    assert str(err).endswith("brick: actuator 'fx-test' failed to open: RuntimeError: port handle is None")
+    assert err.__notes__ == ["actuator 'fx-tracked' also failed to close: RuntimeError: port already gone"]
