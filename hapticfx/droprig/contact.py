@@ -100,7 +100,9 @@ class DropScene:
     distance from the crown, ``spin`` (rad/s) its angular rate at contact,
     ``gap`` (m) its clearance above the dome at release (negative: pressed in),
     ``gravity`` (m/s^2) the acceleration of gravity on the block (the helmet
-    always rests on its support under its own weight).
+    always rests on its support under its own weight), ``max_fall`` (m) the furthest the block can fall below
+    where it starts: with :attr:`gravity` it bounds the block's speed, and so the solver's steps, by energy
+    (inf: by falling for the whole run).
     """
 
     block: Block
@@ -113,6 +115,7 @@ class DropScene:
     spin: float = 0.0
     gap: float = 2e-4
     gravity: float = G
+    max_fall: float = math.inf
 
     def __post_init__(self):
         valid_number(self.block.mass, name="mass_kg", minimum=1e-6, maximum=1e4)
@@ -310,6 +313,8 @@ class DropScene:
         # Free fall is a polynomial the error estimators see as exact, so without a bound a solver
         # can step clean through the helmet; no step may move the block by more than half the dome radius.
         speed = self.velocity + self.gravity * duration
+        if math.isfinite(self.max_fall):
+            speed = min(speed, math.sqrt(self.velocity ** 2 + 2.0 * self.gravity * self.max_fall))
         max_step = min(duration, 0.5 * self.helmet.dome_radius / speed) if speed > 0 else duration
         return atol, max_step
 
