@@ -50,9 +50,9 @@ class Strike:
 
     def scene(self, info: ObjectInfo, drop: Drop, receiver: Receiver) -> DropScene:
         """The contact scene of ``drop``: from the first contact, pressed on by the hold force alone."""
-        # A held striker's "gravity" is the hold force over its mass (1000 N on 1 g: 1e6 m/s^2); bounded by
-        # falling for the whole run alone, its solver's steps shrank with the run (300 ms: 9.5 s a render). From
-        # contact it falls no further than into the receiver, less than a dome radius.
+        # A held striker's "gravity" is the hold force over its mass (1000 N on 1 g: 1e6 m/s^2). From contact it
+        # falls no further than into the receiver, less than a dome radius: that, not falling for the whole run,
+        # bounds its speed and so its solver's steps.
         return replace(scene_for(info, drop, receiver), gap=0.0, gravity=self.hold_n / info.mass_kg,
                        max_fall=receiver.dome_radius)
 

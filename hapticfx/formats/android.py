@@ -30,7 +30,7 @@ from .base import ExportOptions
 from .device import Device
 from .document import Reader
 from .envelope_format import EnvelopeFormat
-from .pattern import MILLISECONDS, Curves, Pattern, grid_size, written
+from .pattern import Curves, Pattern, grid_size, written
 
 RULES = "Android VibrationEffect"
 DEFAULT_AMPLITUDE = 0.5
@@ -45,7 +45,7 @@ class AndroidFormat(EnvelopeFormat):
     description = "Android VibrationEffect waveform and API 36 envelope (arguments as JSON)"
 
     def document(self, pattern: Pattern, options: ExportOptions) -> Any:
-        t, a = pattern.continuous((), MILLISECONDS)  # no burst: clipped to the impact's peak
+        t, a = pattern.continuous()  # no burst: clipped to the impact's peak
         ms = np.round(t * 1000).astype(int)
         first = np.flatnonzero(np.concatenate(([True], np.diff(ms) > 0)))  # breakpoints a millisecond apart,
         ms, a, t = ms[first], np.maximum.reduceat(a, first), t[first]    # each the loudest of its millisecond

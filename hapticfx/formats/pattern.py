@@ -58,7 +58,7 @@ class Pattern:
     def duration_s(self) -> float:
         return float(self.amplitude[-1, 0])
 
-    def continuous(self, bursts, ticks_per_s: int) -> tuple[np.ndarray, np.ndarray]:
+    def continuous(self, bursts=(), ticks_per_s: int = MILLISECONDS) -> tuple[np.ndarray, np.ndarray]:
         """The amplitude breakpoints ``(t, a)`` a file may carry beside its emphasis: clipped to :attr:`peak`, and 0
         from each burst's start to the first tick (``1 / ticks_per_s``) at or after its end, back on their line one
         tick later.
