@@ -167,13 +167,13 @@ def renders(*, stiffness=RENDER_STIFFNESS, masses=RENDER_MASSES, velocities=REND
     """Time ``ContactModel`` renders (500 ms at 1 kHz, the defaults) over the grid; one row per stiffness.
 
     Each render is of a velocity the model has not cached. Beside it, in the same
-    run, the integration alone two ways on the model's own grid: ``DropScene.sample``
-    (what the model uses) and scipy's ``solve_ivp`` dense solution evaluated on the
-    grid (the baseline), with the largest difference of the helmet's acceleration they
+    run, the integration alone two ways on the model's own grid and at its tolerance:
+    ``DropScene.sample`` (what the model uses) and scipy's ``solve_ivp`` dense solution
+    evaluated on the grid (the baseline), with the largest difference of the helmet's acceleration they
     give, relative to its peak (velocities from 0.01 m/s).
     """
     from ..interfaces import Impact
-    from ..models.contact import ContactModel
+    from ..models.contact import RTOL, ContactModel
     from ..objects import ObjectInfo
     from ..params import BuildContext
 
@@ -195,10 +195,10 @@ def renders(*, stiffness=RENDER_STIFFNESS, masses=RENDER_MASSES, velocities=REND
                 peaks.append(out.peak)
                 scene, rate, n_fine, lead = model.scene(info, v)
                 t0 = time.perf_counter()
-                fast = scene.sample(n_fine - lead, rate)
+                fast = scene.sample(n_fine - lead, rate, rtol=RTOL)
                 sample_walls.append(time.perf_counter() - t0)
                 t0 = time.perf_counter()
-                dense = scene.integrate((n_fine - lead - 1) / rate).sol(np.arange(n_fine - lead) / rate)
+                dense = scene.integrate((n_fine - lead - 1) / rate, rtol=RTOL).sol(np.arange(n_fine - lead) / rate)
                 dense_walls.append(time.perf_counter() - t0)
                 if v >= 0.01:  # below, the response is under 1e-6 g and the tolerances are absolute
                     a = scene.helmet.sensor_acceleration(fast, rate)
