@@ -63,7 +63,7 @@ def test_material_and_stiffness_change_the_sound_of_it():
     assert build({"material": "steel"}).describe()["material"] == "steel"
 
 
-@pytest.mark.parametrize("mass", [1e-3, 10.0])
+@pytest.mark.parametrize("mass", [1e-6, 1e-3, 10.0])
 @pytest.mark.parametrize("velocity", [0.01, 20.0])
 @pytest.mark.parametrize("stiffness", [1e3, 1e10])
 def test_finite_and_bounded_for_extreme_inputs(mass, velocity, stiffness):

@@ -92,7 +92,8 @@ def test_rendering_from_a_table_integrates_nothing(monkeypatch):
 # the stiffest cases are integrated directly and the tables are checked at the soft end
 @pytest.mark.parametrize("mass, stiffness, served", [
     pytest.param(1e-3, 1e3, "table", marks=pytest.mark.slow), pytest.param(10.0, 1e3, "table", marks=pytest.mark.slow),
-    (1e-3, 1e10, "direct"), (10.0, 1e10, "direct"), (1e-3, 1e3, "direct"), (10.0, 1e3, "direct")])
+    (1e-6, 1e10, "direct"), (1e-3, 1e10, "direct"), (10.0, 1e10, "direct"),
+    (1e-6, 1e3, "direct"), (1e-3, 1e3, "direct"), (10.0, 1e3, "direct")])
 def test_edges_finite_bounded_continuous_and_a_clear_error_past_the_range(mass, stiffness, served):
     table, direct = pair({"mass_kg": mass, "stiffness": stiffness, "table": served == "table"})
     v_max = 2.0

@@ -157,7 +157,7 @@ def table(rows: list[dict]) -> str:
 
 
 RENDER_STIFFNESS = (1e3, 1e6, 1e8, 1e10)
-RENDER_MASSES = (1e-3, 0.1, 1.0, 10.0)
+RENDER_MASSES = (1e-6, 1e-3, 0.1, 1.0, 10.0)
 RENDER_VELOCITIES = (1e-6, 0.01, 0.5, 5.0, 50.0)
 RENDER_BUDGET_MS = 50.0
 

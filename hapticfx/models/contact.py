@@ -67,7 +67,7 @@ class ContactModel(Model):
             "what is rendered: sensor (the receiver's 3-axis sensor, reduced with `reducer`), receiver (the struck "
             "body's acceleration along the impact, where it is held) or striker (the striking body's, e.g. a "
             "fingertip or stylus that taps)"))
-        mass_kg: float | None = field(default=None, metadata=doc("object mass; default: the effect's object", min=1e-3, max=1e4))
+        mass_kg: float | None = field(default=None, metadata=doc("object mass; default: the effect's object", min=1e-6, max=1e4))
         hold_n: float = field(default=0.0, metadata=doc(
             "force pressing the striker onto the receiver (N): a held stylus or fingertip stays in contact and rings "
             "on it; what the press alone does (velocity 0) is subtracted", min=0.0, max=1000.0))
