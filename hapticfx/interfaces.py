@@ -321,8 +321,17 @@ class SafetyLimits:
     def strictest(self, *others: "SafetyLimits") -> "SafetyLimits":
         """Limits that hold all of these at once (several effects or actuators on one physical output): the
         limiter enforces every one of them, each over its own window, so the strictest wins everywhere."""
-        more = tuple(o for o in others if o is not None and o is not self and o not in self.constraints())
-        return dataclasses.replace(self, also=self.also + more) if more else self
+        held, more = self.constraints(), []
+        for other in others:
+            if other is None:
+                continue
+            # ``==`` compares the values a constraint enforces, not the ``hard`` or ``also`` it carries: another
+            # is redundant only where each of its own constraints is one already held
+            extra = [c for c in other.constraints() if c not in held]
+            if extra:
+                more.append(other)
+                held += extra
+        return dataclasses.replace(self, also=self.also + tuple(more)) if more else self
 
     def describe(self) -> dict:
         """Each value with who set it (the strictest that holds), for ``stats()`` and the log."""

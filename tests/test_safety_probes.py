@@ -143,6 +143,24 @@ def test_a_scene_lowers_a_limit_for_every_effect_it_routes(tmp_path):
     assert stats["outputs"]["actuators.helmet"]["limits"]["peak"]["set_by"].startswith("scene ")
 
 
+@pytest.mark.parametrize("first", ["plain", "strict"])
+def test_an_effects_own_limits_hold_on_a_shared_outputs_sum_whichever_entry_comes_first(first):
+    """With the plain effect listed first, eight impacts of the strict one at one instant summed to peak 1.0 and
+    RMS 0.70 in the file: its limits compared equal to the plain effect's (``==`` ignores what they carry in
+    ``also``) and the output's limiter dropped them."""
+    v = probe.strict_beside_plain(first)
+    assert v.held, v
+    assert v.rms > 0.09  # the impacts came through, up to its RMS limit
+
+
+def test_strictest_limits_keep_a_stricter_limit_carried_by_equal_looking_limits():
+    hard = SafetyLimits(source="actuator")
+    carried = hard.strictest(hard.lowered(peak=0.2, source="effect"))
+    assert carried == hard  # the same values of its own: only what it carries differs
+    assert min(c.peak for c in hard.strictest(carried).constraints()) == 0.2
+    assert hard.strictest(hard) is hard and carried.strictest(hard) is carried
+
+
 def test_strictest_limits_hold_every_window_of_each():
     a = SafetyLimits(peak=1.0, rms=0.7, source="a")
     b = SafetyLimits(peak=0.5, rms=0.9, rms_window_s=0.01, source="b")

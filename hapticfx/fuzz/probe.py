@@ -193,6 +193,28 @@ def wav_flood(n: int = 300, every_s: float = 0.002) -> Verdict:
                    note=f"{x.shape[1] / rate:.2f} s in the file")
 
 
+def strict_beside_plain(first: str = "plain", n: int = 8) -> Verdict:
+    """An effect with its own limits (peak 0.2, RMS 0.1) routed to a WAV output beside a plain effect, the one or
+    the other listed first: ``n`` of its impacts at one instant, summed in the file, against its limits."""
+    from ..actuators.files import read_wav
+
+    with tempfile.TemporaryDirectory() as tmp:
+        wav = Path(tmp) / "session.wav"
+        entries = {"plain": "  plain: {actuator: out, inline: " + INLINE.format(name="plain", obj="steel-plate",
+                                                                                 extra="") + "}",
+                   "strict": "  strict: {actuator: out, inline: " + INLINE.format(
+                       name="strict", obj="concrete-brick", extra=", limits: {peak: 0.2, rms: 0.1}") + "}"}
+        order = [first, "strict" if first == "plain" else "plain"]
+        scene = write_scene(Path(tmp), f"  out: {{type: wav, path: {wav}, rate_hz: 8000, format: float32, gain: 1.0}}",
+                            "\n".join(entries[k] for k in order))
+        with Engine(scene) as engine:
+            for _ in range(n):
+                engine.impact("strict", 6.0, at=0.0)
+        rate, x = read_wav(wav)
+    return measure(f"an effect's own limits on a shared WAV output, the {first} effect listed first", x.T, rate,
+                   peak=0.2, rms=0.1)
+
+
 def refused(case: str, build: Callable[[], object], peak: float, rms: float) -> Verdict:
     """A case that must be refused with a clear error (nothing plays); ``build()`` closes what it opened."""
     try:
@@ -209,4 +231,6 @@ CORE_CASES: dict[str, Callable[[], Verdict]] = {
     "wav-flood": wav_flood,
     "memory-4000": shared_memory,
     "memory-8-threads": lambda: shared_memory(4000, threads=8),
+    "strict-after-plain": strict_beside_plain,
+    "strict-before-plain": lambda: strict_beside_plain("strict"),
 }
