@@ -253,10 +253,9 @@ class Streams:
         """Give ``channel`` back; the last actuator on an output closes its stream after draining it."""
         with self._lock:
             held = stream.users.get(channel, [])
-            if limits in held:
-                held.remove(limits)
-            elif held:
-                held.pop()
+            mine = [i for i, h in enumerate(held) if h is limits]  # by identity: equal values may carry other `also`
+            if mine or held:
+                held.pop(mine[0] if mine else -1)
             if held:
                 stream.mixer.set_limits(channel, held[0].strictest(*held[1:]))
             else:

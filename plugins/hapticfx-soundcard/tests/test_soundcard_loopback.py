@@ -185,6 +185,17 @@ def test_one_channel_twice_shares_its_limiter_with_the_strictest_limits(soundser
     assert a.output_key() == b.output_key()
 
 
+def test_a_plain_actuator_leaving_a_shared_channel_leaves_the_stricter_limits_on_it(soundserver):
+    """The stricter limits (peak 0.2, carried in `also`) compare equal to the plain ones: the leaving actuator's
+    were looked up by `==`, so the stricter entry was removed and the channel's limiter went back to peak 1."""
+    a = VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(channel=0))
+    a.limits = a.spec.limits.strictest(a.spec.limits.lowered(peak=0.2, source="effect quiet"))
+    with a:
+        with VibroTransducer(VibroTransducer.Params(queue=0.0), BuildContext(channel=0)) as b:
+            assert a._stream is b._stream and a.limits == b.limits
+        assert a._stream.mixer._limiters[0]._peak == 0.2
+
+
 def test_play_before_open_is_an_error(soundserver):
     with pytest.raises(DeviceError, match="not open"):
         Haptuator().play(Signal(np.zeros(10), RATE))
