@@ -19,6 +19,7 @@ import numpy as np
 
 from hapticfx.errors import DeviceError, DeviceUnavailable
 from hapticfx.interfaces import Actuator, ActuatorSpec, SafetyLimits
+from hapticfx.safety import SafetyLimiter
 from hapticfx.signal import Signal, valid_number
 
 from .protocol import (
@@ -30,6 +31,7 @@ if TYPE_CHECKING:
     from .link import SerialLink
 
 EMULATOR_PORT = "emulator"
+PULSE_GAP_MS = round(SafetyLimiter.pulse_gap_s * 1000)  # off for less than this between pulses: the same pulse
 
 
 @dataclass(frozen=True)
@@ -50,6 +52,7 @@ class SolenoidReport:
     shortened_duty: int = 0
     refused_duty: int = 0
     refused_busy: int = 0
+    refused_on_time: int = 0
     refused_by_board: int = 0
 
 
@@ -113,6 +116,7 @@ class SolenoidActuator(Actuator):
         self._window: DutyWindow | None = None
         self._max_on_ms = 0
         self._on_until_ms = 0
+        self._stretch_from_ms = 0  # when the coil's current run of pulses began (see _fire)
         self._lock = threading.Lock()  # one command on the line at a time, whoever calls play()
         self._answering = True  # false once a command failed: close() then does not wait for a reply
 
@@ -155,7 +159,7 @@ class SolenoidActuator(Actuator):
         if board["window_ms"] * budget_ms > board["budget_ms"] * window_ms:  # board allows a lower duty cycle
             window_ms, budget_ms = board["window_ms"], board["budget_ms"]
         self._window = DutyWindow(budget_ms, window_ms)
-        self._on_until_ms = 0
+        self._on_until_ms = self._stretch_from_ms = 0
         self.report = SolenoidReport()
 
     def close(self) -> None:
@@ -231,9 +235,18 @@ class SolenoidActuator(Actuator):
         if now < self._on_until_ms:
             self.report.refused_busy += 1
             return
+        # A pulse that starts less than the limiter's pulse gap after the last one ended continues it (as the
+        # limiter counts a pulse): the run, its short gaps counted as on, keeps to the on-time limit. Without
+        # this, pulses fired back to back 1 ms apart kept the coil on for seconds.
+        if now >= self._on_until_ms + PULSE_GAP_MS:
+            self._stretch_from_ms = now
+        max_on_ms = self._max_on_ms - (now - self._stretch_from_ms)
+        if max_on_ms < self.params.min_pulse_ms:
+            self.report.refused_on_time += 1
+            return
         on_ms = pulse.on_ms
-        if on_ms > self._max_on_ms:
-            on_ms = self._max_on_ms
+        if on_ms > max_on_ms:
+            on_ms = max_on_ms
             self.report.shortened_on_time += 1
         available = self._window.available_ms(now)
         if on_ms > available:

@@ -123,6 +123,44 @@ def test_host_refuses_while_a_pulse_is_on(emulator):
     assert act.report.refused_busy == 1 and len(emulator.firmware.pulses) == 1
 
 
+def longest_run_ms(pulses: list[tuple[int, int, int]], gap_ms: int = 10) -> int:
+    """The longest time the coil was on, from the board's log, pulses less than ``gap_ms`` apart taken as one run
+    (as the limiter counts a pulse), their gaps counted as on."""
+    longest, start, end = 0, None, None
+    for at, on_ms, _ in sorted(pulses):
+        if start is None or at - end >= gap_ms:
+            start = at
+        end = max(end or 0, at + on_ms)
+        longest = max(longest, end - start)
+    return longest
+
+
+def test_pulses_back_to_back_keep_to_the_on_time_limit_together(emulator):
+    """5 ms pulses, each fired as soon as the last had ended, kept the coil on for 2.5 s with 1 ms gaps
+    (max_on_s 0.1 s): a pulse less than 10 ms after the last one continues it."""
+    with actuator_on(emulator.port) as act:
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            act.play(square(1.0, 5))
+            time.sleep(0.0005)
+        pulses = list(emulator.firmware.pulses)
+    assert len(pulses) > 10 and act.report.refused_on_time > 0
+    assert longest_run_ms(pulses) <= 100
+    assert longest_run_ms([(0, 80, 255), (81, 19, 255), (150, 5, 255)]) == 100  # the measure itself
+
+
+def test_a_pulse_right_after_another_gets_what_the_run_has_left(emulator):
+    with actuator_on(emulator.port) as act:
+        act.play(square(1.0, 80))
+        wait_pulse_end(act)  # 10 ms after its end: a new run
+        act.play(square(1.0, 80))
+        time.sleep(act.last_pulse.on_ms / 1000 + 0.002)  # 2 ms after: the same run
+        act.play(square(1.0, 80))
+    first, second, third = (p[1] for p in emulator.firmware.pulses)
+    assert (first, second) == (80, 80) and third <= 100 - 80 - 2 and act.report.shortened_on_time == 1
+    assert longest_run_ms(emulator.firmware.pulses) <= 100
+
+
 def test_host_adopts_a_stricter_board():
     strict = Firmware(FirmwareLimits(max_on_ms=20, duty_permille=250, window_ms=10_000))
     with PtyEmulator(strict) as emu, actuator_on(emu.port) as act:
