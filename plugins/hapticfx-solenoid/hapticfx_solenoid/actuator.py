@@ -19,11 +19,11 @@ import numpy as np
 
 from hapticfx.errors import DeviceError, DeviceUnavailable
 from hapticfx.interfaces import Actuator, ActuatorSpec, SafetyLimits
-from hapticfx.safety import SafetyLimiter
 from hapticfx.signal import Signal, valid_number
 
 from .protocol import (
-    DEFAULT_BAUD, DUTY_SLOTS, THERMAL_CODES, DutyWindow, FirmwareRefused, fire_command, parse_fire_reply, parse_status,
+    DEFAULT_BAUD, DUTY_SLOTS, PULSE_GAP_MS, THERMAL_CODES, DutyWindow, FirmwareRefused, fire_command, parse_fire_reply,
+    parse_status,
 )
 
 if TYPE_CHECKING:
@@ -31,7 +31,6 @@ if TYPE_CHECKING:
     from .link import SerialLink
 
 EMULATOR_PORT = "emulator"
-PULSE_GAP_MS = round(SafetyLimiter.pulse_gap_s * 1000)  # off for less than this between pulses: the same pulse
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from typing import Callable, Literal
 
 from hapticfx.stopsignals import StopSignals
 
-from .protocol import MAX_LINE, PROTOCOL_VERSION, DutyWindow, FirmwareLimits
+from .protocol import MAX_LINE, PROTOCOL_VERSION, PULSE_GAP_MS, DutyWindow, FirmwareLimits
 
 EMULATOR_ID = "hapticfx-solenoid-emulator/1.0"
 FaultKind = Literal["silent", "garbage", "babble", "close"]
@@ -51,6 +51,7 @@ class Firmware:
         self.window = DutyWindow(limits.budget_ms, limits.window_ms)
         self.on_until: int | None = None
         self.duty = 0
+        self.run: tuple[int, int] | None = None  # (start, planned end ms) of the current run of pulses
         self.fired = 0
         self.refused = 0
         self.pulses: list[tuple[int, int, int]] = []  # (start ms, on ms, duty): what the coil did
@@ -93,10 +94,16 @@ class Firmware:
             return self._refuse("LIMIT", f"max on-time {self.limits.max_on_ms} ms")
         if self.is_on(now):
             return self._refuse("BUSY", f"pulse on for {self.on_until - now} ms")
+        # a pulse less than PULSE_GAP_MS after the last one's planned end (a STOP may have ended it sooner:
+        # counting to its plan is the stricter) continues its run
+        run = self.run is not None and now - self.run[1] < PULSE_GAP_MS
+        if run and on_ms > (left := max(0, self.limits.max_on_ms - (now - self.run[0]))):
+            return self._refuse("LIMIT", f"{left} ms on-time left in this run")
         available = self.window.available_ms(now)
         if on_ms > available:
             return self._refuse("DUTY", f"{available} ms left in window")
         self.window.book(now, on_ms)
+        self.run = (self.run[0] if run else now, now + on_ms)
         self.on_until, self.duty = now + on_ms, duty
         self.fired += 1
         self.pulses.append((now, on_ms, duty))

@@ -20,11 +20,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from hapticfx.errors import DeviceError
+from hapticfx.safety import SafetyLimiter
 
 PROTOCOL_VERSION = 1
 MAX_LINE = 32
 DEFAULT_BAUD = 115200
 DUTY_SLOTS = 10
+# A pulse that starts less than this after the last one ended continues it (the sketch's PULSE_GAP_MS; the
+# core limiter's pulse_gap_s): a run of such pulses, its gaps counted as on, keeps to the on-time limit.
+PULSE_GAP_MS = round(SafetyLimiter.pulse_gap_s * 1000)
 ERROR_CODES = ("SYNTAX", "RANGE", "LIMIT", "BUSY", "DUTY", "TOOLONG")
 STATUS_KEYS = ("on", "used_ms", "budget_ms", "max_on_ms", "duty_permille", "window_ms", "fired", "refused")
 # What the sketch can report (16-bit times, a 32-bit window, counters): a number beyond is a corrupt line.

@@ -39,12 +39,19 @@ SCRIPT = [
     (40, "FIRE  10   5\r"),
     (45, "STOP"),
     (45, "STATUS"),
-    *[(100 + 100 * i, "FIRE 100 255") for i in range(26)],
-    (2700, "STATUS"),
+    *[(100 + 110 * i, "FIRE 100 255") for i in range(26)],  # 10 ms apart: each a new run
+    (3000, "STATUS"),
     (10_500, "FIRE 100 255"),
     (11_000, "FIRE 100 255"),
     (13_000, "FIRE 100 255"),
     (13_200, "STATUS"),
+    (20_000, "FIRE 80 255"),
+    (20_085, "FIRE 30 255"),  # 5 ms after the last ended: the same run, 100 - 85 ms left
+    (20_085, "FIRE 15 255"),
+    (20_100, "FIRE 10 255"),  # at once after: nothing left of the run
+    (20_110, "FIRE 100 255"),  # 10 ms after: a new run
+    (20_150, "STOP"),
+    (20_155, "FIRE 100 255"),  # the last pulse's planned end (20_210) counts, not the STOP: 55 ms left
 ]
 EXPECTED = {
     0: "PONG 1 {id}",
@@ -73,6 +80,13 @@ EXPECTED = {
     47: "OK FIRE 100 255",  # 11 s: that slot has gone, 1000 ms are free again
     48: "OK FIRE 100 255",
     49: "STATUS on=0 used_ms=200 budget_ms=2500 max_on_ms=100 duty_permille=250 window_ms=10000 fired=28 refused=15",
+    50: "OK FIRE 80 255",
+    51: "ERR LIMIT 15 ms on-time left in this run",
+    52: "OK FIRE 15 255",
+    53: "ERR LIMIT 0 ms on-time left in this run",
+    54: "OK FIRE 100 255",
+    55: "OK STOP",
+    56: "ERR LIMIT 55 ms on-time left in this run",
 }
 
 

@@ -12,7 +12,8 @@
 //   refused            -> ERR <SYNTAX|RANGE|LIMIT|BUSY|DUTY|TOOLONG> <text>
 //
 // Thermal protection lives here as well as on the host, so a buggy or
-// hostile host cannot cook the coil: no pulse longer than MAX_ON_MS, at most
+// hostile host cannot cook the coil: no pulse longer than MAX_ON_MS (nor a run
+// of pulses each less than PULSE_GAP_MS after the last, gaps counted as on), at most
 // DUTY_PERMILLE of WINDOW_MS on, booked in DUTY_SLOTS + 1 slots (the same
 // book-keeping as hapticfx_solenoid.protocol.DutyWindow). A watchdog resets
 // the board (coil off) if the loop ever stalls. Change the limits for your
@@ -25,6 +26,7 @@
 const uint8_t SOLENOID_PIN = 9;          // PWM pin (Timer1, ~490 Hz)
 const unsigned long BAUD = 115200;
 const uint16_t MAX_ON_MS = 100;
+const uint16_t PULSE_GAP_MS = 10;        // off for less than this between pulses: the same pulse
 const uint16_t DUTY_PERMILLE = 250;
 const uint16_t WINDOW_MS = 10000;
 const uint8_t DUTY_SLOTS = 10;
@@ -39,6 +41,8 @@ unsigned long slotIndex = 0;             // absolute slot number of ring's curre
 bool pulseOn = false;
 unsigned long pulseStart = 0;
 uint16_t pulseMs = 0;
+unsigned long runStart = 0;              // when the current run of pulses began
+bool firedOnce = false;
 unsigned long fired = 0;
 unsigned long refused = 0;
 
@@ -141,6 +145,16 @@ void fire(char **args, uint8_t count, unsigned long now) {
     refuseNumber("BUSY", "pulse on for ", pulseMs - (now - pulseStart), " ms");
     return;
   }
+  // the last pulse's planned end (a STOP may have ended it sooner: counting to its plan is the stricter)
+  bool run = firedOnce && (long)(now - (pulseStart + pulseMs)) < (long)PULSE_GAP_MS;
+  if (run) {
+    unsigned long used = now - runStart;
+    unsigned long left = used >= MAX_ON_MS ? 0 : MAX_ON_MS - used;
+    if (ms > left) {
+      refuseNumber("LIMIT", "", left, " ms on-time left in this run");
+      return;
+    }
+  }
   uint16_t available = availableMs(now);
   if (ms > available) {
     refuseNumber("DUTY", "", available, " ms left in window");
@@ -148,6 +162,8 @@ void fire(char **args, uint8_t count, unsigned long now) {
   }
   advanceSlots(now);
   ring[slotIndex % (DUTY_SLOTS + 1)] += ms;
+  if (!run) runStart = now;
+  firedOnce = true;
   pulseOn = true;
   pulseStart = now;
   pulseMs = ms;
