@@ -258,6 +258,29 @@ class Engine:
                     out.limits = out.limits.strictest(*(p.limits for p in pipelines))
             for oid in oids:
                 self._route[oid] = out
+        if head is not None:
+            self._check_head_alone(physical)
+
+    def _check_head_alone(self, physical: dict[object, "_Output"]) -> None:
+        """Each of the head's sites on a physical output of its own: two limiters on one output (another scene
+        actuator on a site's device and channel) would each hold the limit on their own part of its sum, and
+        sites that share one (the channels of a file) would each write over the other."""
+        out = self._outputs[f"actuators.{self.scene.head.actuator}"]
+        taken: dict[object, str] = {}
+        for site in out.sites:
+            key = site.actuator.output_key()
+            if key is None:
+                continue
+            where = " ".join(map(str, key)) if isinstance(key, tuple) else str(key)
+            if key in taken:
+                raise EffectError(f"the head's sites {taken[key]!r} and {site.name!r} play into one output of "
+                                  f"{out.name} ({where}): a head needs an actuator with a channel of its own for each "
+                                  "site (a sound card)", source=self.scene.source, key="head.sites")
+            taken[key] = site.name
+            if key in physical:
+                raise EffectError(f"{physical[key].name} plays into the output of the head's site {site.name!r} "
+                                  f"({where}): route its effects to {self.scene.head.actuator!r}, or give it another "
+                                  "device or channel", source=self.scene.source, key=physical[key].name)
 
     def _head_output(self, output: str, pipelines: list[Pipeline], device, n_groups: int,
                      queue_size: int) -> _Output:

@@ -381,3 +381,22 @@ def test_close_cancels_what_is_queued_for_a_failing_device(tmp_path, registry):
     assert frame["failing"].startswith("no answer")
     # not waited on: what was still queued is cancelled, not tried one timeout after another
     assert frame["cancelled"] >= 7 and frame["failed"] + frame["cancelled"] == 10 and frame["pending"] == 0
+
+
+def test_a_head_whose_sites_share_one_file_is_refused(tmp_path):
+    """Each site of a head on a WAV actuator wrote the whole file on close, so only one site's impacts (here, of
+    the site not struck: silence) were left in it."""
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"""name: file-head
+actuators:
+  helmet: {{type: wav, path: {tmp_path / 'out.wav'}, rate_hz: 8000}}
+head:
+  actuator: helmet
+  sites: {{crown: {{position: [0, 0, 0.13], channel: 0}}, back: {{position: [0, -0.1, 0.05], channel: 1}}}}
+effects:
+  plate: {{actuator: helmet, inline: {{name: e, object: steel-plate, model: {{type: kinetic-energy}},
+           actuator: {{type: vibro-transducer}}}}}}
+""")
+    with pytest.raises(EffectError, match=r"head\.sites: the head's sites 'crown' and 'back' play into one output"):
+        Engine(scene)
+    assert not (tmp_path / "out.wav").exists()
