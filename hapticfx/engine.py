@@ -176,6 +176,12 @@ def _play_on(actuator: Actuator, signal: Signal, job: "_Job") -> None:
         actuator.play(signal)
 
 
+def _sounds_at(actuator: Actuator, job: "_Job", now: float) -> float:
+    """When ``job`` sounds on ``actuator``'s own clock, for the host's limiter there: where a file output places
+    it (``takes_time``), else now."""
+    return job.timeline_s if actuator.takes_time and not actuator.takes_received else now
+
+
 def _pending(counts: dict) -> int:
     """Impacts queued and not yet played, failed or cancelled (waiting, or rendering now)."""
     return counts["queued"] - counts["rendered"] - counts["failed"] - counts["cancelled"]
@@ -431,7 +437,8 @@ class Engine:
         else:
             if out.limiter is not None:
                 before = out.limiter.report().total
-                signal = Signal(out.limiter.process(signal.samples, at_s=now), signal.rate_hz)  # see render()
+                signal = Signal(out.limiter.process(signal.samples, at_s=_sounds_at(out.actuator, job, now)),
+                                signal.rate_hz)  # see render()
                 limited = limited or out.limiter.report().total > before
             _play_on(out.actuator, signal, job)
         acted = set(delivery.limiter.acted).union(*(r.acted for r in out.reports())) if limited else set()
@@ -463,7 +470,7 @@ class Engine:
         for k, site in enumerate(out.sites):
             if site.limiter is not None and k in sounding:  # a silent row needs no limiting: zeros stay zeros
                 before = site.limiter.report().total
-                per_site[k] = site.limiter.process(per_site[k], at_s=now)
+                per_site[k] = site.limiter.process(per_site[k], at_s=_sounds_at(site.actuator, job, now))
                 limited = limited or site.limiter.report().total > before
             _play_on(site.actuator, Signal(per_site[k], rate), job)  # a copy: no site can write into another's row
         return Signal.adopt(per_site, rate), limited

@@ -4,9 +4,12 @@ limiter the host does not trust (it declares ``limits_mix`` and failed, or never
 The host cannot see the sum such an actuator makes, nor exactly when it starts each impact. So it bounds the
 sum whatever their alignment: the peak of a sum is at most the sum of the peaks, and the RMS of a sum over
 any window at most the sum of each one's largest windowed RMS (Minkowski). Each new impact is scaled so that,
-with every impact that may still sound with it, both sums stay within the limits. An impact is taken to
-sound from ``play()`` for its length, give or take ``slack_s`` (a mixer's buffer), and to share windows with
-what ends less than a window before it.
+with every impact that may sound with it, both sums stay within the limits. An impact is taken to sound from
+when it is placed (``play()``, or the time a ``takes_time`` actuator is given) for its length, give or take
+``slack_s`` (a mixer's buffer), and to share windows with what sounds less than a window before or after it:
+times may come out of order (a sender's ``at``), so each is checked against every impact kept near it. Impacts
+are kept for :data:`HORIZON_S` behind the latest; one placed earlier than that cannot be bounded and is
+silenced (counted in the report).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from .interfaces import Actuator, SafetyLimits
 from .safety import LimiterReport, SafetyLimiter
 
 SLACK_S = 0.25
+HORIZON_S = 2.0  # how far behind the latest impact one may be placed and still be bounded
 
 
 class SumBound:
@@ -32,39 +36,52 @@ class SumBound:
         self._peak = min(c.peak for c in every)
         self._rms = sorted({(c.rms, max(1, int(round(c.rms_window_s * self.rate_hz)))) for c in every})
         self._reach_s = max(w for _, w in self._rms) / self.rate_hz + slack_s
-        self._sounding: deque[tuple[float, float, tuple[float, ...]]] = deque()  # (end_s, peak, rms per window)
+        self._sounding: deque[tuple[float, float, float, tuple[float, ...]]] = deque()  # (end, start, peak, rms)
+        self._latest = -np.inf  # the latest end placed
         self._lock = threading.Lock()
         self._events = 0
         self._least = 1.0
+        self._silenced = 0
 
     def process(self, samples: np.ndarray, *, at_s: float) -> np.ndarray:
-        """``samples`` (1D) played at ``at_s`` (host seconds), scaled so that the bounds hold."""
+        """``samples`` (1D) that sound from ``at_s`` (seconds on the output's clock), scaled so that the bounds
+        hold."""
         x = np.asarray(samples, dtype=np.float64)
         peak = float(np.max(np.abs(x))) if x.size else 0.0
         rms = tuple(float(window_rms(x, win).max()) if x.size else 0.0 for _, win in self._rms)
+        start, end = float(at_s), float(at_s) + x.size / self.rate_hz
         with self._lock:
-            while self._sounding and self._sounding[0][0] + self._reach_s < at_s:
-                self._sounding.popleft()
+            if start - self._reach_s < self._latest - HORIZON_S:  # what sounded with it may be forgotten
+                self._silenced += 1
+                self._events += 1
+                self._least = 0.0
+                return np.zeros_like(x)
+            near = [(p, r) for e, s, p, r in self._sounding if e + self._reach_s >= start and s - self._reach_s <= end]
             gain = 1.0
-            used_peak = sum(p for _, p, _ in self._sounding)
+            used_peak = sum(p for p, _ in near)
             if peak > 0:
                 gain = min(gain, max(0.0, self._peak - used_peak) / peak)
             for k, (limit, _) in enumerate(self._rms):
-                used = sum(r[k] for _, _, r in self._sounding)
+                used = sum(r[k] for _, r in near)
                 if rms[k] > 0:
                     gain = min(gain, max(0.0, limit - used) / rms[k])
             if gain < 1.0:
                 self._events += 1
                 self._least = min(self._least, gain)
-            end = at_s + x.size / self.rate_hz
-            self._sounding.append((end, peak * gain, tuple(r * gain for r in rms)))
+            self._latest = max(self._latest, end)
+            self._sounding.append((end, start, peak * gain, tuple(r * gain for r in rms)))
             self._sounding = deque(sorted(self._sounding))
+            while self._sounding and self._sounding[0][0] < self._latest - HORIZON_S:
+                self._sounding.popleft()
         return x * gain
 
     def report(self) -> LimiterReport:
         with self._lock:
             db = -20 * np.log10(self._least) if self._least > 0 else float("inf")
             acted = ("sum of overlapping impacts (host bound)",) if self._events else ()
+            if self._silenced:
+                acted += (f"{self._silenced} impacts placed over {HORIZON_S:g} s before the latest (host bound: "
+                          "silenced)",)
             return LimiterReport(peak_events=self._events, max_reduction_db=float(db), acted=acted)
 
 

@@ -31,6 +31,24 @@ def test_the_same_actuator_under_a_plain_pipeline_gets_the_bound_too():
     assert v.peak > 0.3
 
 
+def test_a_mixing_actuator_on_the_sessions_timeline_gets_the_bound_in_that_time():
+    """The host's bound counted overlap by arrival, the actuator placed impacts by their time: six impacts with
+    one `at`, 0.3 s apart, summed to 3.0 against a peak of 0.9 there."""
+    v = probe.timeline_mixer()
+    assert v.held, v
+    assert v.peak > 0.3
+
+
+def test_the_hosts_bound_checks_an_impact_placed_earlier_against_those_near_it_and_silences_one_too_far_back():
+    bound = SumBound(SafetyLimits(peak=1.0, rms=1.0), 1000.0)
+    pulse = np.ones(50)
+    assert bound.process(pulse, at_s=1.0).max() == 1.0
+    assert bound.process(pulse, at_s=0.8).max() == 0.0  # within reach of the first, out of order: no room left
+    assert bound.process(pulse, at_s=1.0 + 2.5).max() == 1.0  # far enough after
+    assert bound.process(pulse, at_s=0.0).max() == 0.0  # more than the horizon behind the latest
+    assert any("silenced" in a for a in bound.report().acted)
+
+
 def test_an_actuator_that_lowers_its_rate_in_open_is_limited_at_that_rate():
     """Case 6: a limiter left at 48 kHz let 50 ms windows at 8 kHz reach RMS 0.88 against 0.5."""
     v = probe.rate_dropper(30)

@@ -144,6 +144,24 @@ def lying_mixer_pipeline(n: int = 100) -> Verdict:
                    actuator.spec.rate_hz, peak=hard.peak, rms=hard.rms)
 
 
+def timeline_mixer(n: int = 6, every_s: float = 0.3) -> Verdict:
+    """A plugin that sums impacts at their time on the session's timeline and limits nothing: ``n`` impacts that
+    all carry one ``at``, arriving ``every_s`` apart (a replay, a slow network), all placed at one instant."""
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = write_scene(Path(tmp), "  out: {type: timeline-mixer, gain: 1.0}",
+                            "  brick: {actuator: out, inline: " + INLINE.format(name="b", obj="concrete-brick",
+                                                                                extra=", gain: 1.0") + "}")
+        engine = Engine(scene, registry=registry_with(ThirdParty()))
+        actuator = engine._outputs["actuators.out"].actuator
+        for _ in range(n):
+            engine.impact("brick", 6.0, at=100.0)
+            time.sleep(every_s)
+        engine.close()
+    hard = HARD["timeline-mixer"]
+    return measure("third-party limits_mix on the session's timeline that limits nothing, one at, spaced arrivals",
+                   actuator.timeline(), actuator.spec.rate_hz, peak=hard.peak, rms=hard.rms)
+
+
 def rate_dropper(n: int = 60) -> Verdict:
     """A plugin that lowers its rate in open(): impacts back to back in its own time, at the rate it agreed."""
     actuator = third_party_flood("rate-dropper", n, every_s=0.0)
@@ -228,6 +246,7 @@ CORE_CASES: dict[str, Callable[[], Verdict]] = {
     "lying-mixer": lying_mixer,
     "lying-mixer-pipeline": lying_mixer_pipeline,
     "rate-dropper": rate_dropper,
+    "timeline-mixer": timeline_mixer,
     "wav-flood": wav_flood,
     "memory-4000": shared_memory,
     "memory-8-threads": lambda: shared_memory(4000, threads=8),

@@ -5,6 +5,8 @@ probe and its tests: what they output is measured against the limits the host mu
   they were played, as a sound card's mixer would, into ``timeline``.
 - ``rate-dropper`` asks for 48 kHz and agrees to 8 kHz in ``open()``; it plays impacts back to back into
   ``timeline`` (its own time).
+- ``timeline-mixer`` declares ``limits_mix`` and ``takes_time`` and limits nothing: it sums impacts at the time
+  the host gives each (the session's timeline, as a file output does), whenever they arrive.
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ from ..params import BuildContext, doc
 from ..signal import Signal
 
 HARD = {"lying-mixer": SafetyLimits(peak=0.9, rms=0.7, source="actuator lying-mixer"),
-        "rate-dropper": SafetyLimits(peak=1.0, rms=0.5, source="actuator rate-dropper")}
+        "rate-dropper": SafetyLimits(peak=1.0, rms=0.5, source="actuator rate-dropper"),
+        "timeline-mixer": SafetyLimits(peak=0.9, rms=0.7, source="actuator timeline-mixer")}
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,17 @@ class RateDropper(_Timeline):
         self._end += x.size
 
 
+class TimelineMixer(_Timeline):
+    """Says it limits its sum; sums impacts at the times it is given and limits nothing."""
+
+    name = "timeline-mixer"
+    limits_mix = True
+    takes_time = True
+
+    def play(self, signal: Signal, at_s: float | None = None) -> None:
+        self._add(int(round((at_s or 0.0) * self.spec.rate_hz)), signal.samples.reshape(-1))
+
+
 class ThirdParty:
     """The plugin that registers them (``pm.register(ThirdParty(), name=...)``)."""
 
@@ -90,3 +104,4 @@ class ThirdParty:
     def register_actuators(self, register):
         register(LyingMixer.name, LyingMixer)
         register(RateDropper.name, RateDropper)
+        register(TimelineMixer.name, TimelineMixer)
