@@ -18,6 +18,7 @@ changes.
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import logging
 import sys
@@ -146,6 +147,19 @@ def _remember(cls, mark: str, problems: list[str]) -> None:
         pass
 
 
+PLAYING = ("open", "play", "wait", "drain", "close")
+
+
+def _changes_playing(cls: type, base: type) -> list[str]:
+    """What a subclass of ``base`` (whose ``mix_probe`` it inherits) defines anew on the way impacts take: the
+    playing methods, and any method ``base`` itself implements (not one it leaves abstract for subclasses)."""
+    below = cls.__mro__[:cls.__mro__.index(base)]
+    implemented = {name for name, value in vars(base).items()
+                   if inspect.isfunction(value) and not getattr(value, "__isabstractmethod__", False)}
+    return sorted({name for c in below for name, value in vars(c).items()
+                   if inspect.isfunction(value) and (name in PLAYING or name in implemented)})
+
+
 def limits_own_mix(actuator) -> bool:
     """Whether the host leaves the limit on the sum to ``actuator``: it declares ``limits_mix`` and its class
     passed :func:`check_mix_limiter` (checked once per version of its code). The host asks before it opens
@@ -155,7 +169,16 @@ def limits_own_mix(actuator) -> bool:
         return False
     # the class whose mix_probe it uses: actuators sharing one mixer (a vibro-transducer and a haptuator) are
     # checked once
-    cls = next((c for c in cls.__mro__ if "mix_probe" in vars(c)), cls)
+    base = next((c for c in cls.__mro__ if "mix_probe" in vars(c)), cls)
+    if base is not cls and (changed := _changes_playing(cls, base)):
+        with _lock:
+            if cls not in _verdicts:
+                _verdicts[cls] = False
+                log.warning("%s declares limits_mix and inherits the mix_probe of %s, but replaces %s: the probe "
+                            "does not check that code, and the host limits the sum of its impacts itself",
+                            cls.__name__, base.__name__, ", ".join(f"{name}()" for name in changed))
+        return False
+    cls = base
     with _lock:
         verdict = _verdicts.get(cls)
         if verdict is None:

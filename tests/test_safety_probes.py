@@ -49,6 +49,15 @@ def test_the_hosts_bound_checks_an_impact_placed_earlier_against_those_near_it_a
     assert any("silenced" in a for a in bound.report().acted)
 
 
+def test_a_subclass_that_replaces_how_a_checked_actuator_plays_is_not_trusted_with_its_mix(caplog):
+    """It inherited the WAV actuator's mix_probe and passing verdict: the host attached no limiter, and twenty
+    impacts at one instant summed to 4.1 against a peak of 1."""
+    v = probe.wav_remixer()
+    assert v.held, v
+    assert v.peak > 0.3
+    assert "WavRemixer declares limits_mix and inherits the mix_probe of _FileActuator, but replaces" in caplog.text
+
+
 def test_an_actuator_that_lowers_its_rate_in_open_is_limited_at_that_rate():
     """Case 6: a limiter left at 48 kHz let 50 ms windows at 8 kHz reach RMS 0.88 against 0.5."""
     v = probe.rate_dropper(30)

@@ -162,6 +162,22 @@ def timeline_mixer(n: int = 6, every_s: float = 0.3) -> Verdict:
                    actuator.timeline(), actuator.spec.rate_hz, peak=hard.peak, rms=hard.rms)
 
 
+def wav_remixer(n: int = 20) -> Verdict:
+    """A subclass of the core's WAV actuator with its own ``play()`` that sums and limits nothing: ``n`` impacts
+    at one instant."""
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = write_scene(Path(tmp), f"  out: {{type: wav-remixer, path: {Path(tmp) / 'x.wav'}, gain: 1.0}}",
+                            "  brick: {actuator: out, inline: " + INLINE.format(name="b", obj="concrete-brick",
+                                                                                extra=", gain: 1.0") + "}")
+        with Engine(scene, registry=registry_with(ThirdParty())) as engine:
+            actuator = engine._outputs["actuators.out"].actuator
+            for _ in range(n):
+                engine.impact("brick", 6.0, at=0.0)
+    hard = actuator.spec.limits
+    return measure("third-party subclass of the WAV actuator with its own play()", actuator.timeline(),
+                   actuator.spec.rate_hz, peak=hard.peak, rms=hard.rms)
+
+
 def rate_dropper(n: int = 60) -> Verdict:
     """A plugin that lowers its rate in open(): impacts back to back in its own time, at the rate it agreed."""
     actuator = third_party_flood("rate-dropper", n, every_s=0.0)
@@ -247,6 +263,7 @@ CORE_CASES: dict[str, Callable[[], Verdict]] = {
     "lying-mixer-pipeline": lying_mixer_pipeline,
     "rate-dropper": rate_dropper,
     "timeline-mixer": timeline_mixer,
+    "wav-remixer": wav_remixer,
     "wav-flood": wav_flood,
     "memory-4000": shared_memory,
     "memory-8-threads": lambda: shared_memory(4000, threads=8),

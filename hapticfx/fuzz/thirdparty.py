@@ -5,6 +5,8 @@ probe and its tests: what they output is measured against the limits the host mu
   they were played, as a sound card's mixer would, into ``timeline``.
 - ``rate-dropper`` asks for 48 kHz and agrees to 8 kHz in ``open()``; it plays impacts back to back into
   ``timeline`` (its own time).
+- ``wav-remixer`` is the core's WAV actuator with its own ``play()``: it inherits the file's ``mix_probe`` (and
+  its passing verdict) and sums impacts into ``timeline`` without the file's limiter.
 - ``timeline-mixer`` declares ``limits_mix`` and ``takes_time`` and limits nothing: it sums impacts at the time
   the host gives each (the session's timeline, as a file output does), whenever they arrive.
 """
@@ -17,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..actuators.virtual import WavActuator
 from ..hookspecs import hookimpl
 from ..interfaces import Actuator, ActuatorSpec, SafetyLimits
 from ..params import BuildContext, doc
@@ -97,6 +100,24 @@ class TimelineMixer(_Timeline):
         self._add(int(round((at_s or 0.0) * self.spec.rate_hz)), signal.samples.reshape(-1))
 
 
+class WavRemixer(WavActuator):
+    """The core's WAV actuator with a ``play()`` of its own, which sums and limits nothing."""
+
+    name = "wav-remixer"
+
+    def open(self) -> None:
+        self._out, self._lock = np.zeros(0), threading.Lock()
+
+    def play(self, signal: Signal, at_s: float | None = None) -> None:
+        _Timeline._add(self, int(round((at_s or 0.0) * self.spec.rate_hz)), signal.samples.reshape(-1))
+
+    def timeline(self) -> np.ndarray:
+        return _Timeline.timeline(self)
+
+    def close(self) -> None:
+        pass
+
+
 class ThirdParty:
     """The plugin that registers them (``pm.register(ThirdParty(), name=...)``)."""
 
@@ -105,3 +126,4 @@ class ThirdParty:
         register(LyingMixer.name, LyingMixer)
         register(RateDropper.name, RateDropper)
         register(TimelineMixer.name, TimelineMixer)
+        register(WavRemixer.name, WavRemixer)
