@@ -40,7 +40,7 @@ from .errors import DeviceError, EffectError, HapticfxError, SignalError, one_li
 from .interfaces import Actuator, Impact, valid_vector
 from .interpolators.table import shared_tables
 from .osc import ImpactMessage
-from .pipeline import Delivery, Pipeline, build_actuator, close_after_failure, open_actuator
+from .pipeline import Delivery, Pipeline, build_actuator, check_rate, close_after_failure, open_actuator
 from .ratelog import RateLimitedLog
 from .registry import Registry
 from .safety import SafetyLimiter
@@ -467,6 +467,9 @@ class Engine:
         per_site = out.spatialiser.spread(signal.samples, rate, placements)
         limited = False
         sounding = {p.site for p in placements if p.gain > 0}
+        for site in out.sites:
+            if site.limiter is not None:
+                check_rate(site.actuator, site.limiter.rate_hz)
         for k, site in enumerate(out.sites):
             if site.limiter is not None and k in sounding:  # a silent row needs no limiting: zeros stay zeros
                 before = site.limiter.report().total

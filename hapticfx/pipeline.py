@@ -123,6 +123,14 @@ def check_spec(actuator: Actuator) -> None:
         raise PluginError(f"{who}: its spec has {bad[0]}")
 
 
+def check_rate(actuator: Actuator, rate_hz: float) -> None:
+    """Refuse to play through ``actuator`` once its rate is no longer the one its limiter was built at (what it
+    agreed in ``open()``): the limiter's windows, counted in samples, would be another length of time."""
+    if actuator.spec.rate_hz != rate_hz:
+        raise PluginError(f"{_who(actuator)} changed its rate from {rate_hz:g} Hz to {actuator.spec.rate_hz:g} Hz "
+                          "after open(): an actuator agrees on its rate in open() and keeps it; nothing was played")
+
+
 def open_actuator(actuator: Actuator, *, source: str | None = None, key: str | None = None) -> None:
     """``actuator.open()``, then its spec checked again: it may agree on another rate with the device, but
     its hard limits are what the limiters were built with, and they stay. What ``open()`` raises that is not a
@@ -240,6 +248,7 @@ class Pipeline:
     def render(self, impact: Impact | None = None, *, velocity: float | None = None, object: str | None = None) -> Delivery:
         """Model, shaping and safety limiter, without playing."""
         impact = impact or self._impact(velocity, object)
+        check_rate(self.actuator, self.limiter.rate_hz)
         terms = _located(lambda: self.model.terms(impact), self.effect, "model")  # a plugin's error names the file
         if terms is None:
             profile = _located(lambda: self.model.render(impact), self.effect, "model")

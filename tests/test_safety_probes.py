@@ -6,13 +6,15 @@ plugins/hapticfx-soundcard/tests/test_safety_soundcard.py."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from hapticfx.conformance import PROBE_LIMITS, PROBES, check_mix_limiter
 from hapticfx.engine import Engine
 from hapticfx.fuzz import probe
-from hapticfx.fuzz.thirdparty import LyingMixer
+from hapticfx.fuzz.thirdparty import LyingMixer, ThirdParty
 from hapticfx.interfaces import SafetyLimits
 from hapticfx.sumbound import SumBound
 from hapticfx.testing import assert_mix_limiter
@@ -56,6 +58,25 @@ def test_a_subclass_that_replaces_how_a_checked_actuator_plays_is_not_trusted_wi
     assert v.held, v
     assert v.peak > 0.3
     assert "WavRemixer declares limits_mix and inherits the mix_probe of _FileActuator, but replaces" in caplog.text
+
+
+def test_an_actuator_whose_rate_changes_after_open_is_refused_before_anything_plays_at_it():
+    """The impact was shaped at the new rate and limited at the old: 50 ms windows reached RMS 0.64 against 0.3."""
+    import yaml
+
+    from hapticfx.effect import effect_from_mapping
+    from hapticfx.errors import PluginError
+    from hapticfx.pipeline import Pipeline
+
+    effect = effect_from_mapping(yaml.safe_load(f"{{name: b, object: concrete-brick, model: {probe.LOUD}, "
+                                                "actuator: {type: rate-shifter, gain: 1.0}}"),
+                                 source="probe.yaml", base_dir=Path("."))
+    with Pipeline(effect, registry=probe.registry_with(ThirdParty())) as pipeline:
+        pipeline.impact()
+        played = pipeline.actuator.timeline().size
+        with pytest.raises(PluginError, match="changed its rate from 48000 Hz to 8000 Hz after open"):
+            pipeline.impact()
+        assert pipeline.actuator.timeline().size == played
 
 
 def test_an_actuator_that_lowers_its_rate_in_open_is_limited_at_that_rate():

@@ -5,6 +5,7 @@ probe and its tests: what they output is measured against the limits the host mu
   they were played, as a sound card's mixer would, into ``timeline``.
 - ``rate-dropper`` asks for 48 kHz and agrees to 8 kHz in ``open()``; it plays impacts back to back into
   ``timeline`` (its own time).
+- ``rate-shifter`` plays at 48 kHz and, after its first impact, reports 8 kHz (a device that re-negotiated).
 - ``wav-remixer`` is the core's WAV actuator with its own ``play()``: it inherits the file's ``mix_probe`` (and
   its passing verdict) and sums impacts into ``timeline`` without the file's limiter.
 - ``timeline-mixer`` declares ``limits_mix`` and ``takes_time`` and limits nothing: it sums impacts at the time
@@ -27,7 +28,8 @@ from ..signal import Signal
 
 HARD = {"lying-mixer": SafetyLimits(peak=0.9, rms=0.7, source="actuator lying-mixer"),
         "rate-dropper": SafetyLimits(peak=1.0, rms=0.5, source="actuator rate-dropper"),
-        "timeline-mixer": SafetyLimits(peak=0.9, rms=0.7, source="actuator timeline-mixer")}
+        "timeline-mixer": SafetyLimits(peak=0.9, rms=0.7, source="actuator timeline-mixer"),
+        "rate-shifter": SafetyLimits(peak=1.0, rms=0.5, source="actuator rate-shifter")}
 
 
 @dataclass(frozen=True)
@@ -89,6 +91,22 @@ class RateDropper(_Timeline):
         self._end += x.size
 
 
+class RateShifter(_Timeline):
+    """Opens at the asked rate; after its first impact its spec says a sixth of it."""
+
+    name = "rate-shifter"
+
+    def open(self) -> None:
+        self._end = 0
+
+    def play(self, signal: Signal) -> None:
+        x = signal.samples.reshape(-1)
+        self._add(self._end, x)
+        self._end += x.size
+        self.spec = ActuatorSpec(rate_hz=self.spec.rate_hz / 6, volts_peak=1.0, band_hz=(0.0, self.spec.rate_hz / 12),
+                                 limits=self.spec.limits)
+
+
 class TimelineMixer(_Timeline):
     """Says it limits its sum; sums impacts at the times it is given and limits nothing."""
 
@@ -127,3 +145,4 @@ class ThirdParty:
         register(RateDropper.name, RateDropper)
         register(TimelineMixer.name, TimelineMixer)
         register(WavRemixer.name, WavRemixer)
+        register(RateShifter.name, RateShifter)
