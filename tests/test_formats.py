@@ -90,7 +90,7 @@ def test_silence_and_a_clipped_signal_stay_bounded(tmp_path):
             assert np.all(np.isfinite(decoded.signal.samples)) and np.max(np.abs(decoded.signal.samples)) <= 1.0 + 1e-9
 
 
-@pytest.mark.parametrize("name", ["haptic", "ahap", "hjif", "android"])
+@pytest.mark.parametrize("name", ["haptic", "ahap", "hjif", "android", "android-ogg"])
 @pytest.mark.parametrize("device", ["quest", "console-pcm"])
 @pytest.mark.parametrize("f, decay_s", [(40.0, 0.5), (120.0, 0.5), (160.0, 0.15), (160.0, 0.5), (200.0, 0.03),
                                         (200.0, 0.15), (200.0, 0.5)])

@@ -5,8 +5,9 @@ haptic channels A and B) to the vibrator at audio rate; the Vorbis comment ``AND
 says how many. Of the Android paths it is the closest to what hapticfx renders: the waveform
 itself, not an envelope. hapticfx writes two channels, a silent audio channel and the impact as
 haptic channel A, at the signal's own rate (Vorbis, libsndfile's quality 0.9 of 1), and reads
-back the mean of the haptic channels, clipped to full scale (Vorbis overshoots a clipped signal
-by about 2%). A file without the tag, or with N not 1 or 2 or more than its channels, is refused.
+back the mean of the haptic channels, clipped to full scale. Vorbis overshoots a peak by up to a
+few per cent, so the writer decodes what it encoded and, where that reads back above the impact's
+peak, encodes the impact again scaled down by the overshoot. A file without the tag, or with N not 1 or 2 or more than its channels, is refused.
 
 libsndfile (through ``soundfile``, the ``ogg`` extra) encodes and decodes the audio, but it
 writes its own Vorbis comment (``ENCODER=...``) and no way to add the ``ANDROID_HAPTIC`` tag,
@@ -30,6 +31,7 @@ from .document import atomic_bytes
 RULES = "Android audio-coupled haptics"
 TAG = "ANDROID_HAPTIC"
 MAX_BYTES = 64 << 20
+OVERSHOOT_MARGINS = (0.0, 0.002, 0.005, 0.01, 0.02, 0.05)  # below the overshoot, each try: its coding noise moves
 
 
 def _soundfile():
@@ -166,9 +168,22 @@ class AndroidOggFormat(Format):
     def write(self, path: Path, signal: Signal, options: ExportOptions) -> None:
         sf = _soundfile()
         rate = int(round(signal.rate_hz))
-        frames = np.column_stack((np.zeros(len(signal.samples)), np.clip(signal.samples, -1.0, 1.0)))
-        buffer = io.BytesIO()
-        sf.write(buffer, frames, rate, format="OGG", subtype="VORBIS", compression_level=0.1)
+        x = np.clip(signal.samples, -1.0, 1.0)
+        peak = float(np.max(np.abs(x))) if x.size else 0.0
+        # Vorbis overshoots a peak by up to a few per cent (0.302 for a 0.3 square pulse): the impact is encoded
+        # again, scaled down by what its decode overshot and a margin, until the decode keeps within its own peak
+        for margin in OVERSHOOT_MARGINS:
+            buffer = io.BytesIO()
+            sf.write(buffer, np.column_stack((np.zeros(len(x)), x)), rate, format="OGG", subtype="VORBIS",
+                     compression_level=0.1)
+            decoded, _ = sf.read(io.BytesIO(buffer.getvalue()), always_2d=True)
+            got = float(np.max(np.abs(decoded[:, -1]))) if decoded.size else 0.0
+            if got <= peak:
+                break
+            x = x * (peak / got * (1.0 - margin))
+        else:
+            raise HapticfxError(f"{path}: the Vorbis encoding of this impact reads back at {got:.4f}, above its peak "
+                                f"{peak:.4f}, after {len(OVERSHOOT_MARGINS)} tries; nothing was written")
         atomic_bytes(Path(path), with_comments(buffer.getvalue(), [f"{TAG}=1", "ENCODER=hapticfx"], str(path)))
 
     def read(self, path: Path, device, *, rate_hz: float) -> Decoded:
