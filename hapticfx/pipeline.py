@@ -24,7 +24,7 @@ from .registry import Registry
 from .safety import LimiterReport, SafetyLimiter
 from .conformance import limits_own_mix
 from .sumbound import host_limiter
-from .shaping import ShapedAtoms, shape
+from .shaping import FADE_IN_S, FADE_OUT_S, ShapedAtoms, shape
 from .signal import MAX_PROFILE_S, MAX_PROFILE_SAMPLES, Signal, valid_velocity
 
 
@@ -72,14 +72,20 @@ def _located(build, effect: Effect, key: str):
         raise type(exc)(str(exc), source=effect.source, key=key) from None
 
 
-def _check_length(effect: Effect, rate_hz: float, n_samples: int) -> None:
+def _check_length(effect: Effect, rate_hz: float, n_samples: int, *, waveform: bool) -> None:
     """Refuse a model's profile longer than :data:`~hapticfx.signal.MAX_PROFILE_S` or of more samples than
     :data:`~hapticfx.signal.MAX_PROFILE_SAMPLES`, before it is shaped: at the actuator's rate it only grows
-    (600 s at 1 kHz played as 220 MiB at 48 kHz)."""
+    (600 s at 1 kHz played as 220 MiB at 48 kHz); and, for a waveform actuator, one shorter than the fades
+    shaping puts at its two ends, which would play it (nearly) silent."""
     if n_samples > MAX_PROFILE_SAMPLES or n_samples > MAX_PROFILE_S * rate_hz:
         raise PluginError(f"model {effect.model.type!r} rendered a profile of {n_samples / rate_hz:.6g} s "
                           f"({n_samples} samples at {rate_hz:g} Hz); a profile is at most {MAX_PROFILE_S:g} s and "
                           f"{MAX_PROFILE_SAMPLES} samples", source=effect.source, key="model")
+    fades_ms = (FADE_IN_S + FADE_OUT_S) * 1000.0
+    if waveform and n_samples / rate_hz * 1000.0 < fades_ms:
+        raise EffectError(f"model {effect.model.type!r} renders {n_samples / rate_hz * 1000.0:.6g} ms, shorter than "
+                          f"the {fades_ms:g} ms the actuator's signal fades in and out over: it would play (nearly) "
+                          f"silent; give it at least {fades_ms:g} ms (duration_ms)", source=effect.source, key="model")
 
 
 MAX_ACTUATOR_RATE_HZ = 1e6
@@ -226,7 +232,7 @@ class Pipeline:
         first impacts cost what every later one does."""
         atoms = self.model.atoms()
         if atoms is not None:
-            _check_length(self.effect, atoms.rate_hz, atoms.n_samples)
+            _check_length(self.effect, atoms.rate_hz, atoms.n_samples, waveform=self.actuator.spec.waveform)
             self.atoms.warm(atoms, self.actuator.spec)
 
     def close(self) -> None:
@@ -255,10 +261,10 @@ class Pipeline:
             if not isinstance(profile, Signal):
                 raise PluginError(f"model {self.effect.model.type!r} rendered a {type(profile).__name__}, not a "
                                   "Signal", source=self.effect.source, key="model")
-            _check_length(self.effect, profile.rate_hz, profile.n_samples)
+            _check_length(self.effect, profile.rate_hz, profile.n_samples, waveform=self.actuator.spec.waveform)
             shaped = shape(profile, self.actuator.spec, gain=self.gain, scale=self.scale)
         else:
-            _check_length(self.effect, terms.rate_hz, terms.n_samples)
+            _check_length(self.effect, terms.rate_hz, terms.n_samples, waveform=self.actuator.spec.waveform)
             profile = terms.profile()
             shaped = self.atoms.shape(terms, self.actuator.spec)
         with self._lock:

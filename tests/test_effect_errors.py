@@ -54,6 +54,10 @@ CASES = [
      GOOD.replace("pulse_ms: 30", "pulse_ms: 0.4"),
      "{f}: model.pulse_ms: pulse_ms 0.4 is under half a sample at rate_hz 1000: the pulse would be silent; "
      "give more than 0.5 ms"),
+    ("a pulse that leaves no room for the silent first sample",
+     GOOD.replace("pulse_ms: 30", "pulse_ms: 30\n  duration_ms: 30"),
+     "{f}: model.duration_ms: pulse_ms 30 and the silent first sample (t = 0) do not fit in duration_ms 30 at "
+     "rate_hz 1000: give duration_ms at least 31"),
     ("unknown actuator key lists the core keys too",
      GOOD.replace("gain: 0.8", "gian: 0.8"),
      "{f}: actuator: unknown key 'gian'; allowed: type, device, channel, gain, full_scale_g, limits, rate_hz, keep_mib"),
@@ -108,6 +112,18 @@ def test_malformed_effect_message(write_effect, label, text, message):
         assert str(err.value).startswith(expected)
     else:
         assert str(err.value) == expected
+
+
+def test_a_profile_shorter_than_the_fades_is_refused_when_the_effect_opens(write_effect):
+    """A 2 ms pulse in 5 ms (or a 1 ms pulse in 2) rendered a profile at full amplitude that played as zeros."""
+    from hapticfx.pipeline import Pipeline
+
+    path = write_effect(GOOD.replace("pulse_ms: 30", "pulse_ms: 2\n  duration_ms: 5"))
+    with pytest.raises(EffectError) as err:
+        Pipeline.from_effect(path, device="memory").open()
+    assert str(err.value) == (f"{path}: model: model 'kinetic-energy' renders 5 ms, shorter than the 12 ms the "
+                              "actuator's signal fades in and out over: it would play (nearly) silent; give it at "
+                              "least 12 ms (duration_ms)")
 
 
 def test_missing_file(tmp_path):

@@ -48,6 +48,11 @@ class KineticEnergyModel(Model):
             raise EffectError(f"pulse_ms {params.pulse_ms:g} is under half a sample at rate_hz {params.rate_hz:g}: "
                               f"the pulse would be silent; give more than {500.0 / params.rate_hz:g} ms",
                               source=context.source, key="model.pulse_ms")
+        if 1 + width > n:  # sample 0 (t = 0) is silent: the pulse is the `width` samples after it
+            raise EffectError(f"pulse_ms {params.pulse_ms:g} and the silent first sample (t = 0) do not fit in "
+                              f"duration_ms {params.duration_ms:g} at rate_hz {params.rate_hz:g}: give duration_ms at "
+                              f"least {(1 + width) * 1000.0 / params.rate_hz:g}",
+                              source=context.source, key="model.duration_ms")
         self._pulse = np.zeros(n)
         self._pulse[1 : 1 + width] = 1.0  # sample 0 is t = 0
         self._pulse.setflags(write=False)
