@@ -86,6 +86,10 @@ def test_effect_errors_name_file_and_key():
         build({"material": "jelly"})
     with pytest.raises(EffectError, match="model.pre_ms"):
         build({"pre_ms": 600.0})
+    # shorter than duration_ms by less than two samples: every velocity rendered silence
+    with pytest.raises(EffectError, match=r"model.pre_ms: pre_ms 9.99 leaves less than two samples"):
+        build({"duration_ms": 10.0, "pre_ms": 9.99})
+    assert build({"duration_ms": 10.0, "pre_ms": 8.0}).render(Impact("wood-beam", 3.0)).peak > 0
     with pytest.raises(EffectError, match="needs an object"):
         build(object_id="", info=False)
     with pytest.raises(EffectError, match=r"model.stiffness: must be <= 1000"):

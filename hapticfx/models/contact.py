@@ -97,9 +97,10 @@ class ContactModel(Model):
         if params.receiver not in RECEIVERS:
             raise EffectError(f"unknown receiver {params.receiver!r}; shipped: {', '.join(RECEIVERS)}",
                               source=context.source, key="model.receiver")
-        if params.pre_ms >= params.duration_ms:
-            raise EffectError(f"pre_ms {params.pre_ms} must be shorter than duration_ms {params.duration_ms}",
-                              source=context.source, key="model.pre_ms")
+        if (params.duration_ms - params.pre_ms) * params.rate_hz / 1000.0 < 2:
+            raise EffectError(f"pre_ms {params.pre_ms:g} leaves less than two samples of duration_ms "
+                              f"{params.duration_ms:g} at rate_hz {params.rate_hz:g} for the impact: it would render "
+                              "silence", source=context.source, key="model.pre_ms")
         if params.mass_kg is None and context.object_info is None:
             raise EffectError("the contact model needs an object: describe it with mass_kg (and dimensions_mm), "
                               "or set model.mass_kg", source=context.source, key="model")
