@@ -59,8 +59,12 @@ def _listing(devices: list[OutputDevice]) -> str:
 
 
 def resolve_device(device: str | int | None) -> OutputDevice:
-    """The output device named by ``device``: None/'default', an index, or part of a name."""
+    """The output device named by ``device``: None/'default', an index, or part of a name.
+
+    A name or index that matches none is a :class:`DeviceUnavailable` only where there is no output at all (a
+    headless machine: ``play`` then writes a file); beside outputs it is a typo, a :class:`DeviceError`."""
     devices = output_devices()
+    missing = DeviceError if devices else DeviceUnavailable
     if device is None or device == "default":
         sd = import_sounddevice()
         index = _default_output(sd)
@@ -72,12 +76,12 @@ def resolve_device(device: str | int | None) -> OutputDevice:
         index = int(device)
         found = [d for d in devices if d.index == index]
         if not found:
-            raise DeviceUnavailable(f"no sound output device with index {index}; outputs: {_listing(devices)}")
+            raise missing(f"no sound output device with index {index}; outputs: {_listing(devices)}")
         return found[0]
     exact = [d for d in devices if d.name == device]
     found = exact or [d for d in devices if str(device).lower() in d.name.lower()]
     if not found:
-        raise DeviceUnavailable(f"no sound output device matches {device!r}; outputs: {_listing(devices)}")
+        raise missing(f"no sound output device matches {device!r}; outputs: {_listing(devices)}")
     if len(found) > 1:
         raise DeviceError(f"{device!r} matches several outputs ({_listing(found)}); give the index")
     return found[0]

@@ -196,6 +196,23 @@ def test_a_plain_actuator_leaving_a_shared_channel_leaves_the_stricter_limits_on
         assert a._stream.mixer._limiters[0]._peak == 0.2
 
 
+def test_a_device_name_that_matches_no_output_beside_others_is_an_error_not_a_file(soundserver, tmp_path):
+    """A typo in an effect's device (or an index that does not exist) was taken for a machine without sound
+    outputs: `play` wrote the impact to a file and exited 0."""
+    import subprocess
+    from pathlib import Path
+
+    effect = (Path(__file__).resolve().parents[3] / "effects" / "falling_brick.yaml").read_text()
+    for device in ("no-such-card", "99"):
+        path = tmp_path / "typo.yaml"
+        path.write_text(effect.replace("device: default", f"device: '{device}'"))
+        done = subprocess.run([sys.executable, "-m", "hapticfx", "play", str(path)], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+        assert "no sound output device" in done.stderr and "pulse" in done.stderr
+        assert not list(tmp_path.glob("hapticfx-*"))
+
+
 def test_play_before_open_is_an_error(soundserver):
     with pytest.raises(DeviceError, match="not open"):
         Haptuator().play(Signal(np.zeros(10), RATE))
