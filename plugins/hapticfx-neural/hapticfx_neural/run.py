@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from hapticfx.data.dataset import open_dataset
-from hapticfx.errors import DatasetError
+from hapticfx.errors import DatasetError, EffectError
 from hapticfx.progress import say
 
 from .config import POOLED, TrainConfig
@@ -54,11 +54,16 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
 
     base = Path(cfg.source).parent if cfg.source != "<config>" else None
     datasets = [open_dataset(ref, relative_to=base) for ref in cfg.datasets]
-    parts, targets = [], {}
+    parts, targets, held = [], {}, set()
     for ds in datasets:
         objects = cfg.objects or ds.objects
         holdout = {o: [v for v in cfg.holdout_velocities if ds.bank(o, cfg.reducer).index_of(v) is not None]
                    for o in objects}
+        held.update(v for vs in holdout.values() for v in vs)
+        for o, vs in holdout.items():
+            if len(vs) == len(ds.bank(o, cfg.reducer).velocities):
+                raise EffectError(f"holds out every recorded velocity of object {o!r} of {ds.name}: nothing is "
+                                  "left to train on", source=cfg.source, key="holdout_velocities")
         data = training_data(ds, cfg.reducer, objects, holdout=holdout)
         wanted = None if cfg.train_velocities is None else {o: cfg.train_velocities for o in objects}
         prefix = f"{ds.name}/" if len(datasets) > 1 else ""
@@ -69,6 +74,11 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
             part = pooled_triples(data, part, pooling(data), prefix)
         parts.append(part)
         targets.update({prefix + o: v for o, v in chosen.items()})
+    missed = [v for v in cfg.holdout_velocities if v not in held]
+    if missed:  # a velocity no object recorded is held out of nothing: an evaluation would see it trained on
+        raise EffectError(f"{missed[0]:g} m/s is no recorded velocity of any object of "
+                          f"{', '.join(d.name for d in datasets)} (`hapticfx data info` lists them)",
+                          source=cfg.source, key="holdout_velocities")
     first = datasets[0]
     meta = {"name": first.name if len(datasets) == 1 else f"{first.name}+{len(datasets) - 1}",
             "ref": dataset_ref(first) if len(datasets) == 1 else None, "reducer": cfg.reducer,

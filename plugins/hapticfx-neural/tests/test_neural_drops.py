@@ -258,6 +258,21 @@ def test_bad_drop_training_keys_name_the_key(tmp_path, bad, key):
     assert str(path) in str(err.value) and key in str(err.value)
 
 
+@pytest.mark.parametrize("holdout, message", [
+    ([3.1, 3.11], "holdout_velocities: 3.11 m/s is no recorded velocity of any object of toy-drops"),
+    ([2.4, 2.8, 3.1, 3.4, 3.7, 4.0], "holdout_velocities: holds out every recorded velocity of object 'wood-beam'")])
+def test_a_holdout_velocity_that_holds_nothing_out_is_an_error(tmp_path, drop_dataset, holdout, message):
+    """3.11 for 3.1 held nothing out and trained on 3.1, which an evaluation then took for unseen; holding out
+    every velocity said `bank 'wood-beam' velocities is empty`, naming neither the file nor the key."""
+    from hapticfx_neural.run import config_triples
+
+    cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=1))
+    cfg.holdout_velocities = holdout
+    with pytest.raises(EffectError) as err:
+        config_triples(cfg)
+    assert str(err.value).startswith(f"{cfg.source}: {message}")
+
+
 def test_noise_budget_tells_noise_from_a_learnable_change():
     """Pools around one profile: the blend's error is all sampling noise; a curved truth adds what is not."""
     from hapticfx_neural.bench.learnable import noise_budget
