@@ -173,6 +173,11 @@ def _spoil(dataset, what):
         arrays = dict(np.load(bank))
         np.savez_compressed(bank, **{**arrays, "representative": arrays["representative"] + 100})
         return bank, "representative: 100 at index 0 where dataset.json's objects.wood-beam.representative.chosen has 0"
+    if what == "bank profiles cut":  # a 400 ms profile played where the dataset says 500 ms
+        bank = dataset / "banks" / "max-min" / "wood-beam.npz"
+        arrays = dict(np.load(bank))
+        np.savez_compressed(bank, **{**arrays, "profiles_g": arrays["profiles_g"][:, :400]})
+        return bank, f"profiles_g: profiles of 400 samples where dataset.json's n_samples is {meta['n_samples']}"
     if what == "NaN velocity":
         wood["velocities_mps"][1] = float("nan")
         key = "velocities_mps"
@@ -186,7 +191,8 @@ def _spoil(dataset, what):
     return meta_file, f"objects.wood-beam.{key}: expected"
 
 
-@pytest.mark.parametrize("what", ["NaN velocity", "velocities cut", "chosen out of range", "bank representative"])
+@pytest.mark.parametrize("what", ["NaN velocity", "velocities cut", "chosen out of range", "bank representative",
+                                  "bank profiles cut"])
 def test_a_dataset_that_contradicts_itself_is_refused_where_it_is_loaded(dataset, tmp_path, capsys, what):
     file, message = _spoil(dataset, what)
     effect = tmp_path / "e.yaml"

@@ -125,6 +125,10 @@ class Dataset:
                     )
                 arrays = load_npz(file, ("velocities_mps", "profiles_g"))
                 self._agree(file, object_id, arrays["velocities_mps"], representative=arrays.get("representative"))
+                length = arrays["profiles_g"].shape[-1] if arrays["profiles_g"].ndim else None
+                if length != self.n_samples:
+                    raise DatasetError(f"profiles of {length} samples where dataset.json's n_samples is "
+                                       f"{self.n_samples}", source=str(file), key="profiles_g")
                 try:
                     self._banks[key] = ProfileBank(
                         object_id, reducer, self.rate_hz, arrays["velocities_mps"], arrays["profiles_g"]
