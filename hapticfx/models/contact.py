@@ -201,10 +201,11 @@ class ContactModel(Model):
     # shaping each of a table's hundreds of rows ahead at the device's rate would hold tens of MB per effect.
     def render(self, impact: Impact) -> Signal:
         self._check_range(impact.velocity)
-        if self.params.table:
-            raw = self.table_for(self.object_for(impact.object)).profile(impact.velocity)
-            return Signal(self._finish(raw), self.params.rate_hz)
         info = self.object_for(impact.object)
+        if self.params.table:
+            table = self.table_for(info)
+            if table.served_at(impact.velocity):  # else a range the table could not follow: integrated, below
+                return Signal(self._finish(table.profile(impact.velocity)), self.params.rate_hz)
         key = (info.id, float(impact.velocity))
         with self._lock:
             cached = self._cache.get(key)

@@ -14,7 +14,8 @@ object) is tabulated once over ``(0, v_max]``:
   degree ``MAX_DEGREE`` is split, and one still short after ``MAX_SPLITS``
   splits (a profile that is not smooth in velocity there: contacts chattering)
   becomes a straight line between its close knots, recorded in the table's
-  ``unconverged`` list (``hapticfx bench physics`` measures what it costs);
+  ``unconverged`` list: a model serves velocities there by direct computation
+  (:meth:`PhysicsTable.served_at`), not from the line;
 * below the first knot, the first knot's profile scaled by ``v / v_floor``
   (continuous, silence at 0; the shape there is the first knot's).
 
@@ -87,12 +88,18 @@ class PhysicsTable:
         if self.profiles.shape != (len(self.velocities), table.meta["n_samples"]) or len(ivs) != len(self.velocities) - 1:
             raise CheckpointError(f"{table.where}: knots do not match the table's intervals")
         self._intervals = ivs
+        self.unconverged = [(float(a), float(b)) for a, b in table.meta.get("unconverged", [])]
         self._scales = [float(scale(self.profiles[i], self.profiles[i + 1])) for i in range(len(ivs))]
         self.v_max = float(self.velocities[-1])
 
     @property
     def source(self) -> str:
         return self.table.meta["source"]["physics_sha256"]
+
+    def served_at(self, velocity: float) -> bool:
+        """Whether the table holds the profile at ``velocity`` within its tolerance: not inside an interval that
+        did not converge (there it is a straight line between two knots, off by up to a tenth of the peak)."""
+        return not any(a < velocity < b for a, b in self.unconverged)
 
     def profile(self, velocity: float) -> np.ndarray:
         """The profile at ``velocity``: the knots' blend plus the interval's polynomial (one small matrix product)."""
@@ -114,7 +121,8 @@ class PhysicsTable:
     def describe(self) -> dict:
         meta = self.table.meta
         return {"table": self.table.where, "knots": len(self.velocities), "nodes": self.table.n_nodes,
-                "v_max": self.v_max, "tolerance": meta["tolerance"], "build_s": meta.get("build_s")}
+                "v_max": self.v_max, "tolerance": meta["tolerance"], "build_s": meta.get("build_s"),
+                **({"integrated_directly_mps": self.unconverged} if self.unconverged else {})}
 
 
 def build(obj: str, profile: ProfileFn, *, v_max: float, rate_hz: float, source: str, reducer: str,
