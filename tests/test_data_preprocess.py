@@ -118,6 +118,12 @@ def test_other_rates_are_resampled_to_1khz_windows():
     assert best < 0.01 * np.max(np.abs(w_ref))
 
 
+def test_trigger_finds_the_onset_of_a_recording_whose_squares_overflow():
+    xyz = np.zeros((50, 3))
+    xyz[10], xyz[20] = 1e200, 3e200  # the squared magnitude overflowed to inf at both
+    assert trigger_onsets(xyz, fraction=0.5) == 20
+
+
 def test_silence_and_short_recordings():
     assert np.array_equal(preprocess(np.zeros((2, 300, 3)), FS), np.zeros((2, 500, 3)))
     w = preprocess(_drop(0.05, n=200), FS)  # shorter than a window: zero-padded

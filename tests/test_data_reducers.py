@@ -91,6 +91,20 @@ def test_dft321_finite_and_linear_beyond_where_its_squares_overflow(scale):
     assert np.array_equal(dft321(np.stack([xyz[0], xyz[1] * scale]))[0], dft321(xyz[0]))  # each signal by itself
 
 
+@pytest.mark.parametrize("scale", [1e-150, 1e-200, 1e-300])
+def test_dft321_finite_and_linear_where_its_squares_would_underflow(scale):
+    """A 1e-300 signal reduced to exactly 0 (its squared spectra underflowed), where sqrt(3) c is the answer for a
+    constant c on every axis."""
+    xyz = np.random.default_rng(3).normal(size=(2, 500, 3)) / 4
+    np.testing.assert_allclose(dft321(xyz * scale), dft321(xyz) * scale, rtol=1e-9, atol=1e-9 * scale)
+    assert np.array_equal(dft321(np.stack([xyz[0] * scale, xyz[1]]))[1], dft321(xyz[1]))  # each signal by itself
+    assert dft321(np.full((8, 3), 1e-300)) == pytest.approx(np.full(8, np.sqrt(3) * 1e-300), rel=1e-12)
+
+
+def test_dft321_of_no_samples_is_no_samples():
+    assert dft321(np.zeros((0, 3))).shape == (0,) and dft321(np.zeros((2, 0, 3))).shape == (2, 0)
+
+
 def test_dft321_of_the_largest_floats():
     top = np.finfo(np.float64).max
     one_axis = np.zeros((4, 3))

@@ -110,7 +110,7 @@ def trigger_onsets(xyz, *, fraction: float = 0.1) -> np.ndarray:
     arr = valid_signal(xyz, name="recording")
     if arr.ndim < 2 or arr.shape[-1] != 3:
         raise SignalError(f"recording must have shape (..., samples, 3), got {arr.shape}")
-    mag = np.sqrt(np.sum(arr * arr, axis=-1))
+    mag = np.hypot(np.hypot(arr[..., 0], arr[..., 1]), arr[..., 2])  # no square overflows (1e200 g stays finite)
     peak = mag.max(axis=-1, keepdims=True)
     above = (mag >= fraction * peak) & (peak > 0)
     return np.where(above.any(axis=-1), above.argmax(axis=-1), 0)

@@ -31,8 +31,9 @@ def max_min(xyz) -> np.ndarray:
 
 
 # A spectrum of N samples of at most p is at most N p; below this, the sum of three axes' squared spectra
-# (at most 3 (N p)^2) stays finite.
+# (at most 3 (N p)^2) stays finite; above _SQUARES_TINY, no square of a sample's size underflows to zero.
 _SQUARES_SAFE = np.sqrt(np.finfo(np.float64).max) / 4
+_SQUARES_TINY = np.sqrt(np.finfo(np.float64).tiny) * 2**30
 
 
 def _dft321(arr: np.ndarray) -> np.ndarray:
@@ -49,18 +50,21 @@ def dft321(xyz) -> np.ndarray:
     the summed spectra (``np.angle``, defined in all four quadrants). The
     length is kept; a single non-zero axis comes back unchanged.
 
-    A signal so large that the squared spectra would overflow (above about 1e153 / N) is reduced
-    scaled by a power of two, which is exact, and scaled back; every other signal is reduced as it
-    is, bit for bit. A result beyond the float64 range (``sqrt(3)`` times the largest float, say)
-    is a :class:`SignalError`.
+    A signal so large that the squared spectra would overflow (above about 1e153 / N), or so small
+    that they would underflow to zero (below about 1e-145), is reduced scaled by a power of two,
+    which is exact, and scaled back; every other signal is reduced as it is, bit for bit. A result
+    beyond the float64 range (``sqrt(3)`` times the largest float, say) is a :class:`SignalError`.
+    No samples give no samples.
     """
     arr = _xyz(xyz)
+    if arr.shape[-2] == 0:
+        return np.zeros(arr.shape[:-1])
     safe = _SQUARES_SAFE / arr.shape[-2]
-    if max(arr.max(), -arr.min()) <= safe:
-        return _dft321(arr)
     peak = np.max(np.abs(arr), axis=(-2, -1), keepdims=True)
-    large = peak > safe
-    exponent = np.where(large, np.frexp(peak)[1], 0)[..., 0]  # each large signal's peak brought below 1
+    outside = (peak > safe) | ((peak > 0) & (peak < _SQUARES_TINY))
+    if not outside.any():
+        return _dft321(arr)
+    exponent = np.where(outside, np.frexp(peak)[1], 0)[..., 0]  # each such signal's peak brought to [0.5, 1)
     with np.errstate(over="ignore"):
         out = np.ldexp(_dft321(np.ldexp(arr, -exponent[..., None])), exponent)
     if not np.all(np.isfinite(out)):
