@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -16,6 +17,13 @@ def user_path(text) -> Path:
         return Path(text).expanduser()
     except RuntimeError:  # no such user, or no home directory
         return Path(text)
+
+
+def file_name_part(text: str, *, most: int = 64) -> str:
+    """``text`` (an effect's name, say) made fit to go into a file name: letters, digits, ``.``, ``_`` and ``-``
+    kept, every run of anything else (``/``, a NUL byte, a newline, a space) one ``-``, at most ``most`` characters;
+    ``"-"`` where nothing is left."""
+    return re.sub(r"[^\w.-]+", "-", text)[:most].strip("-") or "-"
 
 
 def _nearest_existing(path: Path) -> Path:

@@ -113,6 +113,24 @@ def test_play_without_device_writes_wav_and_png(tmp_path, write_effect, devicele
     assert (tmp_path / "hapticfx-brick-ke-3.80mps.png").stat().st_size > 1000
 
 
+@pytest.mark.parametrize("name", ["x/../../../escaped", "a\\0b", "two\\nlines", "n" * 300])
+def test_headless_play_keeps_the_effects_name_from_making_its_file_names(tmp_path, write_effect, deviceless_plugin,
+                                                                          name):
+    """The name goes into the default file names: a '/' must not lead out of the folder, a NUL byte, a newline or
+    300 characters must not break the write or the one line it prints."""
+    effect = write_effect(f'name: "{name}"\nobject: concrete-brick\nvelocity_mps: 3.8\nmodel: {{type: kinetic-energy}}\n'
+                          "actuator: {type: absent}\n")
+    here = tmp_path / "a" / "b" / "c"
+    here.mkdir(parents=True)
+    r = hfx("play", effect, cwd=here, env=deviceless_plugin)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert len(r.stdout.strip().splitlines()) == 1, r.stdout
+    written = sorted(p.name for p in here.iterdir())
+    assert [Path(n).suffix for n in written] == [".png", ".wav"] and all(len(n) < 100 for n in written), written
+    assert all(n in r.stdout for n in written)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "effect.yaml", "site"]
+
+
 def test_play_with_explicit_absent_device_is_an_error(write_effect, deviceless_plugin):
     r = hfx("play", write_effect(KE % "absent"), "--device", "3", env=deviceless_plugin)
     assert r.returncode == 2 and r.stderr.strip() == "hapticfx: error: no audio output device found"

@@ -55,6 +55,15 @@ def test_export_a_folder_over_a_velocity_range(tmp_path, capsys):
 
 
 
+def test_an_effects_name_stays_inside_the_export_folder(tmp_path, capsys, write_effect):
+    effect = write_effect(BRICK.read_text().replace("name: falling-brick-kinetic", "name: x/../../escaped"))
+    code, _, err = hfx(capsys, "export", effect, "--format", "haptic", "--out", tmp_path / "set", "--velocities", "3,4")
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / "set").iterdir()) == ["x-..-..-escaped-3.00mps.haptic",
+                                                                    "x-..-..-escaped-4.00mps.haptic"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["effect.yaml", "set"]
+
+
 @pytest.mark.parametrize("velocities, said", [
     ("1:inf:1", "asks for inf files; at most 1000"), ("0:1e308:1e-308", "asks for inf files"),
     ("3,abc", "expected LO:HI:STEP"), ("5:1:1", "expected LO:HI:STEP"), ("1:2:nan", "expected LO:HI:STEP"),

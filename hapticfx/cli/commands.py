@@ -75,7 +75,7 @@ def play(
     file and a PNG picture in the current directory instead, and their names are printed.
     """
     from ..actuators.files import check_overwrite
-    from ..atomic import user_path
+    from ..atomic import file_name_part, user_path
     from ..pipeline import Pipeline, stand_in
 
     dev = _device(device)
@@ -88,7 +88,7 @@ def play(
     except DeviceUnavailable as exc:
         if dev is not None:
             raise
-        stem = f"hapticfx-{pipeline.effect.name}-{(velocity if velocity is not None else pipeline.effect.velocity_mps):.2f}mps"
+        stem = f"hapticfx-{file_name_part(pipeline.effect.name)}-{(velocity if velocity is not None else pipeline.effect.velocity_mps):.2f}mps"
         wav, png = Path(f"{stem}.wav"), Path(f"{stem}.png")
         delivery = pipeline.render(velocity=velocity, object=object)
         _warn(delivery)

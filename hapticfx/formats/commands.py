@@ -107,7 +107,9 @@ def export(
     speeds = None if velocities is None else _velocities(velocities)  # all of it checked before anything is made
     pipeline = Pipeline.from_effect(source, device="memory")
     if speeds is not None:
-        targets = [(v, out / f"{pipeline.effect.name}-{v:.2f}mps{suffix}") for v in speeds]
+        from ..atomic import file_name_part
+
+        targets = [(v, out / f"{file_name_part(pipeline.effect.name)}-{v:.2f}mps{suffix}") for v in speeds]
     else:
         targets = [(velocity, out)]
     for path, _ in ((p, v) for v, p in targets):
