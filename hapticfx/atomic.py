@@ -40,9 +40,11 @@ def existing_folder(path: Path) -> Path:
 
 def named(exc: OSError, path: Path) -> OSError:
     """``exc``; or, where it names a hidden temporary beside ``path`` (:func:`temporary_beside`) or a file in
-    one, the same error naming ``path``: the file the user asked for, not one they never saw."""
+    one, or names no file at all (a write to an open file: a full disk), the same error naming ``path``: the file
+    the user asked for, not one they never saw."""
     hidden = os.path.abspath(path.parent / f".{path.name}.")
-    if any(n is not None and os.path.abspath(os.fsdecode(n)).startswith(hidden) for n in (exc.filename, exc.filename2)):
+    names = [n for n in (exc.filename, exc.filename2) if n is not None]
+    if exc.errno is not None and (not names or any(os.path.abspath(os.fsdecode(n)).startswith(hidden) for n in names)):
         return OSError(exc.errno, exc.strerror, str(path))  # errno picks the subclass (PermissionError, ...)
     return exc
 
@@ -73,6 +75,32 @@ def check_writable(folder: str | os.PathLike) -> None:
     """Raise :class:`OSError` (the system's reason) unless a file can be made in ``folder``, or, where it does
     not exist yet, in the nearest folder above it, where it would be made. The probe file is gone at once."""
     tempfile.TemporaryFile(dir=_nearest_existing(Path(folder))).close()
+
+
+@contextmanager
+def together(paths):
+    """A block that writes each of ``paths`` (each whole, as :func:`atomic_path` does): should it fail, every one
+    of them is as it was before the block, so that a set of files appears whole or not at all. A file a path held
+    is kept aside, hidden beside it, until the block ends."""
+    paths = [Path(p) for p in paths]
+    new = [p for p in paths if not p.exists()]
+    kept: dict[Path, Path] = {}
+    try:
+        for p in paths:
+            if p.is_file():
+                kept[p] = temporary_beside(p)
+                with naming(p):
+                    os.replace(p, kept[p])
+        yield paths
+    except BaseException:
+        for p in new:
+            if p.is_file():
+                p.unlink()
+        for p, aside in kept.items():
+            os.replace(aside, p)
+        raise
+    for aside in kept.values():
+        aside.unlink(missing_ok=True)
 
 
 @contextmanager

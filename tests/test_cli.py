@@ -131,6 +131,31 @@ def test_headless_play_keeps_the_effects_name_from_making_its_file_names(tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "effect.yaml", "site"]
 
 
+def test_headless_play_writes_both_files_or_neither(tmp_path, write_effect, deviceless_plugin):
+    """The PNG fails after the WAV is written: a folder where it goes, or a full disk (simulated: the picture's
+    write raises ENOSPC, as a full disk does). No WAV is left, the one already there is as it was, and the
+    error names the file."""
+    from hapticfx.actuators.files import write_wav
+
+    effect = write_effect(KE % "absent")
+    wav, png = tmp_path / "hapticfx-brick-ke-3.80mps.wav", tmp_path / "hapticfx-brick-ke-3.80mps.png"
+    png.mkdir()
+    r = hfx("play", effect, "--force", cwd=tmp_path, env=deviceless_plugin)
+    assert (r.returncode, r.stderr) == (2, f"hapticfx: error: {png.name}: is a directory, expected a file name\n")
+    assert not wav.exists()
+    png.rmdir()
+    write_wav(wav, np.full(100, 0.5), 48000)  # an earlier run's, say
+    before = wav.read_bytes()
+    full = ("import errno, sys; from matplotlib.figure import Figure\n"
+            "def savefig(*a, **k): raise OSError(errno.ENOSPC, 'No space left on device')\n"
+            "Figure.savefig = savefig\nfrom hapticfx.cli import main; main(sys.argv[1:])")
+    r = subprocess.run([sys.executable, "-c", full, "play", str(effect)], capture_output=True, text=True, cwd=tmp_path,
+                       env={**os.environ, **deviceless_plugin})
+    assert (r.returncode, r.stderr) == (2, f"hapticfx: error: {png.name}: No space left on device\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([wav.name, "effect.yaml", "site"])
+    assert wav.read_bytes() == before
+
+
 def test_play_with_explicit_absent_device_is_an_error(write_effect, deviceless_plugin):
     r = hfx("play", write_effect(KE % "absent"), "--device", "3", env=deviceless_plugin)
     assert r.returncode == 2 and r.stderr.strip() == "hapticfx: error: no audio output device found"

@@ -96,5 +96,6 @@ def test_a_write_the_machine_refuses_is_one_line_and_leaves_nothing(tmp_path):
         r = _with_file_size_limit(2000, "render", effect, "--out", tmp_path / out)
         assert r.returncode == 2, (out, r.stderr)
         lines = r.stderr.strip().splitlines()
-        assert len(lines) == 1 and "File too large" in lines[0], r.stderr
+        assert len(lines) == 1 and lines[0].startswith(f"hapticfx: error: {tmp_path / out}: "), r.stderr
+        assert lines[0].endswith("File too large"), r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["e.yaml"]

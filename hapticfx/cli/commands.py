@@ -26,23 +26,32 @@ def _device(value: Optional[str]):
 FORCE_HELP = "Replace an output file that hapticfx did not write (its own WAV, PNG and CSV files are replaced anyway)."
 
 
-def _write_outputs(pipeline, delivery, out: Path, *, force: bool) -> list[Path]:
-    """Write a delivery to ``out`` by its suffix (.wav, .csv, .png); returns what was written."""
-    from ..actuators.files import CSV_HEADERS, check_overwrite, write_csv, write_wav
+def _write_outputs(pipeline, delivery, outs: list[Path], *, force: bool) -> list[Path]:
+    """Write a delivery to each of ``outs`` by its suffix (.wav, .csv, .png), all of them or none; returns them."""
+    from ..actuators.files import check_overwrite
+    from ..atomic import together
+
+    for out in outs:
+        check_overwrite(out, force=force)
+    with together(outs):
+        return [_write_output(pipeline, delivery, out) for out in outs]
+
+
+def _write_output(pipeline, delivery, out: Path) -> Path:
+    from ..actuators.files import CSV_HEADERS, write_csv, write_wav
     from .figures import impact_png
 
-    check_overwrite(out, force=force)
     suffix = out.suffix.lower()
     if suffix == ".wav":
-        return [write_wav(out, delivery.output.samples, delivery.output.rate_hz)]
+        return write_wav(out, delivery.output.samples, delivery.output.rate_hz)
     if suffix == ".csv":
         units = getattr(pipeline.model, "units", "g")
         header = CSV_HEADERS[0] if units == "g" else CSV_HEADERS[1]
         time_column, column = header.split(",")
-        return [write_csv(out, {time_column: delivery.profile.times(), column: delivery.profile.samples})]
+        return write_csv(out, {time_column: delivery.profile.times(), column: delivery.profile.samples})
     if suffix == ".png":
-        return [impact_png(out, delivery, title=pipeline.effect.name, profile_units=getattr(pipeline.model, "units", "g"),
-                           volts_peak=pipeline.actuator.spec.volts_peak)]
+        return impact_png(out, delivery, title=pipeline.effect.name, profile_units=getattr(pipeline.model, "units", "g"),
+                          volts_peak=pipeline.actuator.spec.volts_peak)
     raise HapticfxError(f"{out}: unknown output type {suffix!r}; use .wav, .csv or .png")
 
 
@@ -92,8 +101,7 @@ def play(
         wav, png = Path(f"{stem}.wav"), Path(f"{stem}.png")
         delivery = pipeline.render(velocity=velocity, object=object)
         _warn(delivery)
-        _write_outputs(pipeline, delivery, wav, force=force)
-        _write_outputs(pipeline, delivery, png, force=force)
+        _write_outputs(pipeline, delivery, [wav, png], force=force)
         typer.echo(f"no output device ({exc}); wrote the impact to {wav} and {png} instead "
                    f"(choose a file with --device wav:PATH)")
         return
@@ -121,7 +129,7 @@ def render(
     pipeline = Pipeline.from_effect(effect, device="memory")
     delivery = pipeline.render(velocity=velocity, object=object)
     _warn(delivery)
-    written = _write_outputs(pipeline, delivery, out, force=force)
+    written = _write_outputs(pipeline, delivery, [out], force=force)
     typer.echo(_summary(pipeline, delivery, ", ".join(map(str, written))))
 
 
