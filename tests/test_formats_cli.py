@@ -64,6 +64,23 @@ def test_an_effects_name_stays_inside_the_export_folder(tmp_path, capsys, write_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["effect.yaml", "set"]
 
 
+def test_a_velocity_the_model_refuses_leaves_no_part_of_the_batch(tmp_path, capsys, write_effect, tiny_dataset):
+    """`outside: refuse` and a velocity beyond the recorded ones, last in the list: no file, no folder; and with
+    --force an earlier batch is left as it was."""
+    effect = write_effect({"name": "dd", "object": "concrete-brick", "velocity_mps": 3.0, "actuator": {"type": "memory"},
+                           "model": {"type": "data-driven", "dataset": str(tiny_dataset), "outside": "refuse"}})
+    args = ("export", effect, "--format", "ahap", "--out", tmp_path / "set", "--velocities")
+    code, text, err = hfx(capsys, *args, "2.5,3,3.5,6")
+    assert code == 2 and err.count("\n") == 1 and "6" in err and text == "", err
+    assert not (tmp_path / "set").exists()
+    assert hfx(capsys, *args, "2.5,3")[0] == 0
+    (tmp_path / "set" / "dd-3.00mps.ahap").write_text("mine")
+    before = {p.name: p.read_bytes() for p in (tmp_path / "set").iterdir()}
+    code, _, err = hfx(capsys, *args, "3,2.5,6", "--force")
+    assert code == 2, err
+    assert {p.name: p.read_bytes() for p in (tmp_path / "set").iterdir()} == before
+
+
 @pytest.mark.parametrize("velocities, said", [
     ("1:inf:1", "asks for inf files; at most 1000"), ("0:1e308:1e-308", "asks for inf files"),
     ("3,abc", "expected LO:HI:STEP"), ("5:1:1", "expected LO:HI:STEP"), ("1:2:nan", "expected LO:HI:STEP"),

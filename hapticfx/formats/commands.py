@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Optional
 
@@ -54,6 +55,18 @@ def _refuse_existing(path: Path, force: bool) -> None:
         raise HapticfxError(f"{path}: exists; use --force to replace it")
 
 
+@contextmanager
+def _removed_on_failure(folder: Optional[Path]):
+    """A block after which ``folder`` (one it made), should the block fail, is removed again if empty."""
+    try:
+        yield
+    except BaseException:
+        if folder is not None:
+            with suppress(OSError):
+                folder.rmdir()
+        raise
+
+
 def export(
     source: Path = typer.Argument(..., help="Effect file (YAML), or a WAV file (its channels are averaged)."),
     format: str = typer.Option(..., "--format", "-f", metavar="FORMAT",
@@ -99,8 +112,9 @@ def export(
         typer.echo(f"wrote {out} ({out.stat().st_size} bytes, {signal.duration_s * 1000:.0f} ms of {source.name}, "
                    f"{(time.perf_counter() - t0) * 1000:.0f} ms)")
         return
-    from ..pipeline import Pipeline
+    from ..atomic import together
     from ..cli.commands import _warn
+    from ..pipeline import Pipeline
 
     if velocities is not None and velocity is not None:
         raise HapticfxError("give --velocity or --velocities, not both")
@@ -114,19 +128,24 @@ def export(
         targets = [(velocity, out)]
     for path, _ in ((p, v) for v, p in targets):
         _refuse_existing(path, force)
+    made = speeds is not None and not out.exists()
     if speeds is not None:
         out.mkdir(parents=True, exist_ok=True)
-    for i, (v, path) in enumerate(targets):
-        delivery = pipeline.render(velocity=v, object=object)
-        _warn(delivery)
-        imp = delivery.impact
-        described = ExportOptions(**{**options.__dict__, "source": source.name,
-                                     "description": f"{pipeline.effect.name}: {imp.object} at {imp.velocity:.2f} m/s"})
-        t0 = time.perf_counter()
-        fmt.write(path, delivery.output, described)
-        counter = f"[{i + 1}/{len(targets)}] " if len(targets) > 1 else ""
-        typer.echo(f"{counter}wrote {path} ({path.stat().st_size} bytes; {imp.object} at {imp.velocity:.2f} m/s, "
-                   f"{delivery.output.duration_s * 1000:.0f} ms; {(time.perf_counter() - t0) * 1000:.0f} ms)")
+    done = []  # said once every file is in place: a velocity the model refuses, say, leaves none of them
+    with _removed_on_failure(out if made else None), together(path for _, path in targets):
+        for i, (v, path) in enumerate(targets):
+            delivery = pipeline.render(velocity=v, object=object)
+            _warn(delivery)
+            imp = delivery.impact
+            described = ExportOptions(**{**options.__dict__, "source": source.name,
+                                         "description": f"{pipeline.effect.name}: {imp.object} at {imp.velocity:.2f} m/s"})
+            t0 = time.perf_counter()
+            fmt.write(path, delivery.output, described)
+            counter = f"[{i + 1}/{len(targets)}] " if len(targets) > 1 else ""
+            done.append(f"{counter}wrote {path} ({path.stat().st_size} bytes; {imp.object} at {imp.velocity:.2f} m/s, "
+                        f"{delivery.output.duration_s * 1000:.0f} ms; {(time.perf_counter() - t0) * 1000:.0f} ms)")
+    for line in done:
+        typer.echo(line)
 
 
 def bench_formats(
