@@ -200,7 +200,9 @@ class Engine:
 
     ``Engine("scenes/earthquake_room.yaml")`` builds every effect of the scene
     (only what they reference) and opens the actuators. ``device`` replaces
-    every actuator, as ``--device`` does (``memory``, ``wav:PATH``).
+    every actuator, as ``--device`` does (``memory``, ``wav:PATH``); a file it
+    names that exists and hapticfx did not write is refused (``DeviceError``)
+    unless ``overwrite``, and a directory always.
     ``on_played(Playback)`` is called on the output's worker after each impact.
     ``queue_size`` (default: the scene's ``engine.queue_size``) bounds each
     output's queue.
@@ -208,7 +210,7 @@ class Engine:
 
     def __init__(self, scene: Scene | str | Path, *, device: str | int | None = None,
                  queue_size: int | None = None, on_played: Callable[[Playback], None] | None = None,
-                 keep_last: int = 10_000, registry: Registry | None = None):
+                 keep_last: int = 10_000, registry: Registry | None = None, overwrite: bool = False):
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
         size = self.scene.engine.queue_size if queue_size is None else int(valid_number(queue_size, name="queue_size", minimum=1))
         self.close_timeout_s = self.scene.engine.close_timeout_s
@@ -217,7 +219,7 @@ class Engine:
         self._outputs: dict[str, _Output] = {}
         self._route: dict[str, _Output] = {}
         with shared_tables():  # entries served from one velocity table file share one copy of it, read once
-            self._build(device, registry, size)
+            self._build(device, registry, size, overwrite)
         self._lock = threading.Lock()
         self._callback_errors = 0
         self._close_errors: dict[str, str] = {}
@@ -235,7 +237,7 @@ class Engine:
 
     # --- building ---------------------------------------------------------------
 
-    def _build(self, device, registry, queue_size: int) -> None:
+    def _build(self, device, registry, queue_size: int, overwrite: bool) -> None:
         """One output per physical output: scene entries whose actuators resolve to one device and channel
         (``Actuator.output_key``), under whatever names, share one actuator, queue and limiter."""
         groups: dict[str, list[str]] = {}
@@ -247,10 +249,12 @@ class Engine:
             dev = stand_in_for(device, output, len(groups))
             pipelines = []
             for oid in oids:
-                pipelines.append(Pipeline(self.scene.entries[oid].effect, device=dev, registry=registry))
+                pipelines.append(Pipeline(self.scene.entries[oid].effect, device=dev, registry=registry,
+                                          overwrite=overwrite))
                 self._pipelines[oid] = pipelines[-1]
             if head is not None and output == f"actuators.{head.actuator}":
-                out = self._outputs[output] = self._head_output(output, pipelines, device, len(groups), queue_size)
+                out = self._outputs[output] = self._head_output(output, pipelines, device, len(groups), queue_size,
+                                                                overwrite)
             else:
                 key = pipelines[0].actuator.output_key()
                 out = physical.get(key) if key is not None else None
@@ -289,7 +293,7 @@ class Engine:
                                   "device or channel", source=self.scene.source, key=physical[key].name)
 
     def _head_output(self, output: str, pipelines: list[Pipeline], device, n_groups: int,
-                     queue_size: int) -> _Output:
+                     queue_size: int, overwrite: bool) -> _Output:
         """The scene's head: one actuator per site (the head actuator's section on the site's channel)."""
         head = self.scene.head
         first = pipelines[0]
@@ -298,7 +302,7 @@ class Engine:
             effect = dataclasses.replace(first.effect, actuator=dataclasses.replace(first.effect.actuator,
                                                                                     channel=site.channel))
             dev = stand_in_for(device, f"{output}#{site.channel}", n_groups + len(head.sites) - 1)
-            sites.append(_Site(site.name, site.channel, build_actuator(first.plan, effect, dev)))
+            sites.append(_Site(site.name, site.channel, build_actuator(first.plan, effect, dev, overwrite=overwrite)))
         return _Output(output, sites[0].actuator, pipelines, queue_size, sites=sites, spatialiser=Spatialiser(head))
 
     def _open_outputs(self) -> None:

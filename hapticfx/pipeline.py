@@ -159,8 +159,13 @@ def open_actuator(actuator: Actuator, *, source: str | None = None, key: str | N
         raise
 
 
-def build_actuator(plan: Plan, effect: Effect, device: str | int | None) -> Actuator:
-    """The (unopened) actuator of ``effect``'s section, or the virtual one ``device`` names in its place."""
+# What the refusal to replace a file a stand-in (``device="wav:PATH"``) names says to give.
+STAND_IN_OVERWRITE = "--force (in Python: overwrite=True)"
+
+
+def build_actuator(plan: Plan, effect: Effect, device: str | int | None, *, overwrite: bool = False) -> Actuator:
+    """The (unopened) actuator of ``effect``'s section, or the virtual one ``device`` names in its place; that
+    one replaces an existing file hapticfx did not write only with ``overwrite`` (a directory, never)."""
     virtual = stand_in(device)
     context = effect.context(device=None if virtual else device, registry=plan.registry)
     device_actuator: Actuator = _located(lambda: plan.actuator_cls(plan.actuator_params, context), effect, "actuator")
@@ -168,20 +173,22 @@ def build_actuator(plan: Plan, effect: Effect, device: str | int | None) -> Actu
     if not virtual:
         return device_actuator
     cls, path = virtual
-    # A file named on the command line or in code is the caller's explicit choice (the CLI asks for --force).
-    params = cls.Params(path=str(user_path(path)), overwrite=True) if path is not None else cls.Params()
-    return cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
+    params = cls.Params(path=str(user_path(path)), overwrite=overwrite) if path is not None else cls.Params()
+    actuator = cls(params, BuildContext(source=effect.source), spec=device_actuator.spec)
+    actuator.overwrite_option = STAND_IN_OVERWRITE
+    return actuator
 
 
 class Pipeline:
     """Renders and plays impacts for one effect. Thread-safe; use as a context manager."""
 
-    def __init__(self, effect: Effect, *, device: str | int | None = None, registry: Registry | None = None):
+    def __init__(self, effect: Effect, *, device: str | int | None = None, registry: Registry | None = None,
+                 overwrite: bool = False):
         self.effect = effect
         self.plan: Plan = check_effect(effect, registry=registry)
         context = effect.context(device=None if stand_in(device) else device, registry=self.plan.registry)
         self.model: Model = _located(lambda: self.plan.model_cls(self.plan.model_params, context), effect, "model")
-        self.actuator: Actuator = build_actuator(self.plan, effect, device)
+        self.actuator: Actuator = build_actuator(self.plan, effect, device, overwrite=overwrite)
         spec = self.actuator.spec
         self.limits = effective_limits(spec.limits.labelled(spec.limits.source or f"actuator {effect.actuator.type}"),
                                        effect)
@@ -199,11 +206,11 @@ class Pipeline:
 
     @classmethod
     def from_effect(cls, effect: str | Path | Effect, *, device: str | int | None = None,
-                    registry: Registry | None = None) -> "Pipeline":
+                    registry: Registry | None = None, overwrite: bool = False) -> "Pipeline":
         """Build from an effect file path (or a loaded :class:`Effect`)."""
         if not isinstance(effect, Effect):
             effect = load_effect(effect)
-        return cls(effect, device=device, registry=registry)
+        return cls(effect, device=device, registry=registry, overwrite=overwrite)
 
     def open(self) -> "Pipeline":
         if not self._opened:

@@ -260,6 +260,28 @@ def test_wav_output_is_written_when_the_engine_closes(tmp_path, registry):
     assert rate == 2000 and data.size == 400
 
 
+def test_a_stand_in_file_the_user_wrote_or_a_directory_is_refused_when_the_engine_opens(tmp_path, registry):
+    from hapticfx.actuators.files import read_wav, write_wav
+    from hapticfx.errors import DeviceError
+
+    path = scene(tmp_path)
+    mine, folder = tmp_path / "mine-frame.wav", tmp_path / "dir-frame.wav"
+    mine.write_text("precious")
+    folder.mkdir()
+    with pytest.raises(DeviceError, match=r"mine-frame.wav: exists and was not written by hapticfx; use --force "
+                                          r"\(in Python: overwrite=True\)"):
+        Engine(path, device=f"wav:{tmp_path / 'mine.wav'}", registry=registry)
+    assert mine.read_text() == "precious"
+    with pytest.raises(DeviceError, match="dir-frame.wav: is a directory, expected a file name"):
+        Engine(path, device=f"wav:{tmp_path / 'dir.wav'}", registry=registry, overwrite=True)
+    with Engine(path, device=f"wav:{tmp_path / 'mine.wav'}", registry=registry, overwrite=True) as engine:
+        engine.impact("frame", 3.0)
+    write_wav(mine, np.zeros(10), 48000)  # hapticfx's own: replaced without overwrite
+    with Engine(path, device=f"wav:{tmp_path / 'mine.wav'}", registry=registry) as engine:
+        engine.impact("frame", 3.0)
+    assert read_wav(mine)[1].size > 10
+
+
 def test_a_failing_actuator_open_closes_the_ones_already_opened(tmp_path, registry):
     from hapticfx.errors import DeviceError
 

@@ -240,6 +240,44 @@ def test_serve_checks_at_start_that_its_file_output_can_be_made(tmp_path):
     assert r.returncode == 2 and "listening on" not in r.stdout, (r.stdout, r.stderr)
     assert r.stderr == f"hapticfx: error: {wav}: cannot write in {wav.parent} (Not a directory)\n"
 
+def test_serve_refuses_at_start_an_output_it_would_replace_or_cannot_write(tmp_path):
+    """A --device wav:/csv: file or --log file the user wrote, or a directory: one line, exit 2, before it
+    listens, and the file as it was; --force replaces a file (its own log is replaced without it)."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(SCENE.format(wav=tmp_path / "o.wav", rate=0, burst=1))
+    mine, log, folder = tmp_path / "mine.wav", tmp_path / "mylog.txt", tmp_path / "outdir.wav"
+    mine.write_text("precious\n")
+    log.write_text("my notes\n")
+    folder.mkdir()
+
+    def serve(*args):
+        return subprocess.run([sys.executable, "-m", "hapticfx", "serve", str(scene), "--port", "0", "--duration",
+                               "0.1", *map(str, args)], capture_output=True, text=True, timeout=60)
+
+    for args, said in ((("--device", f"wav:{mine}"), f"{mine}: exists and was not written by hapticfx; use --force"),
+                       (("--device", f"csv:{log}"), f"{log}: exists and was not written by hapticfx; use --force"),
+                       (("--device", "memory", "--log", log), f"{log}: exists and was not written by hapticfx; use --force"),
+                       (("--device", f"wav:{folder}", "--force"), f"{folder}: is a directory, expected a file name"),
+                       (("--device", "memory", "--log", folder, "--force"), f"{folder}: is a directory, expected a file name")):
+        r = serve(*args)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and "listening on" not in r.stdout, (args, r.stderr)
+        assert r.stderr.startswith(f"hapticfx: error: {said}"), (args, r.stderr)
+    assert (mine.read_text(), log.read_text()) == ("precious\n", "my notes\n")
+    r = serve("--device", "memory", "--log", log, "--force")
+    assert r.returncode == 0 and log.read_text() == "", r.stderr
+    log.write_text(_played_log_line())
+    assert serve("--device", "memory", "--log", log).returncode == 0  # a log serve wrote is its own
+
+
+def _played_log_line() -> str:
+    from types import SimpleNamespace
+
+    from hapticfx.builtins.scene import _played_line
+
+    return _played_line(SimpleNamespace(object="brick", velocity=3.0, at=None, point=None, normal=None, output="o",
+                                        peak=0.5, duration_s=0.1, latency_s=0.001)) + "\n"
+
+
 def test_bench_serve_runs_and_reports_median_and_p99():
     out = subprocess.run([sys.executable, "-m", "hapticfx", "bench", "serve", "--impacts", "10", "--interval-ms", "0"],
                          capture_output=True, text=True, timeout=120)

@@ -28,11 +28,14 @@ DEFAULT_WAV_FORMAT = "pcm24"
 CSV_HEADERS = ("t_s,profile_g", "t_s,profile_fraction")
 # How the JSON Schema `hapticfx schema --out` writes starts (keys sorted: "$id" first; hapticfx.schema.SCHEMA_ID).
 SCHEMA_START = b'{\n  "$id": "https://hapticfx.invalid/schema/'
+# How each line of `hapticfx serve --log` starts (hapticfx.builtins.scene._played_line).
+PLAYED_LOG_START = b'{"object": '
 
 
 def written_by_hapticfx(path: Path) -> bool:
     """Whether ``path`` is a WAV or PNG file that carries hapticfx's software tag, a CSV file that
-    starts with one of the header rows hapticfx writes (``CSV_HEADERS``), or hapticfx's JSON Schema."""
+    starts with one of the header rows hapticfx writes (``CSV_HEADERS``), hapticfx's JSON Schema, or a log of
+    played impacts (``serve --log``)."""
     try:
         with open(path, "rb") as f:
             head = f.read(4096)
@@ -42,15 +45,18 @@ def written_by_hapticfx(path: Path) -> bool:
         return b"ISFT" in head and SOFTWARE in head[head.index(b"ISFT"):head.index(b"ISFT") + 32]
     if head[:8] == b"\x89PNG\r\n\x1a\n":
         return b"tEXtSoftware\x00" + SOFTWARE in head
-    if head.startswith(SCHEMA_START):
+    if head.startswith(SCHEMA_START) or head.startswith(PLAYED_LOG_START):
         return True
     return head.split(b"\n", 1)[0].rstrip(b"\r").decode("latin-1") in CSV_HEADERS
 
 
 def check_overwrite(path: Path, *, force: bool, option: str = "--force") -> None:
-    """Refuse to replace an existing file that hapticfx did not write, unless ``force``."""
+    """Refuse to replace an existing file that hapticfx did not write, unless ``force`` (an empty file holds
+    nothing to lose: a `serve --log` of a session without impacts, say); and a directory, always."""
     path = Path(path)
-    if path.exists() and not force and not (path.is_file() and written_by_hapticfx(path)):
+    if path.is_dir():
+        raise HapticfxError(f"{path}: is a directory, expected a file name")
+    if path.exists() and not force and not (path.is_file() and (path.stat().st_size == 0 or written_by_hapticfx(path))):
         raise HapticfxError(f"{path}: exists and was not written by hapticfx; use {option} to replace it")
 
 

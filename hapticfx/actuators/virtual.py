@@ -84,6 +84,7 @@ class _FileActuator(Actuator):
 
     limits_mix = True  # it sums what it is given and limits the sum itself
     takes_time = True
+    overwrite_option = "actuator.overwrite: true"  # what a refusal to replace a file says to give
 
     @classmethod
     def mix_probe(cls, limits, rate_hz: float) -> TimelineProbe:
@@ -117,7 +118,7 @@ class _FileActuator(Actuator):
         if not self.path.parent.exists():
             raise DeviceError(f"{self.path}: directory {self.path.parent} does not exist")
         try:
-            check_overwrite(self.path, force=self.params.overwrite, option="actuator.overwrite: true")
+            check_overwrite(self.path, force=self.params.overwrite, option=self.overwrite_option)
         except HapticfxError as exc:
             raise DeviceError(str(exc)) from None
         try:  # the file is made at the first impact: a folder it cannot be made in is said now, not then

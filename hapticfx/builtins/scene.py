@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from contextlib import nullcontext
+from contextlib import ExitStack
 from pathlib import Path
 
 from ..errors import DeviceError
@@ -51,13 +51,15 @@ def _played_line(p) -> str:
 
 def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device: str | None,
                 stats_every: float, duration: float | None, echo, allow_remote: bool = False,
-                secret: str | None = None, warn=None, log_path: Path | None = None) -> dict:
+                secret: str | None = None, warn=None, log_path: Path | None = None, overwrite: bool = False) -> dict:
     """Run the OSC bridge on a scene until SIGINT/SIGTERM (or ``duration``); returns the final counters.
 
     ``warn`` (default: ``echo``) receives the warning printed when the bridge listens beyond loopback;
-    ``log_path``: each played impact is written there as a JSON line as it is played."""
+    ``log_path``: each played impact is written there as a JSON line as it is played. ``overwrite``: replace
+    an output file (``device`` ``wav:PATH``, ``log_path``) that exists and hapticfx did not write."""
     import threading
 
+    from ..actuators.files import check_overwrite
     from ..engine import Engine
     from ..osc import OscBridge
     from ..scene import OscSettings, load_scene
@@ -65,7 +67,9 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
 
     scene = load_scene(scene_path)
     osc = scene.osc or OscSettings()
-    log_file = open(log_path, "w", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
+    if log_path is not None:
+        check_overwrite(log_path, force=overwrite)
+    log_file = None
     lock = threading.Lock()
 
     def write(playback) -> None:
@@ -74,8 +78,11 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
             log_file.write(line + "\n")
             log_file.flush()
 
-    with StopSignals() as stop, (log_file or nullcontext()):
-        with Engine(scene, device=device, on_played=write if log_file else None) as engine:
+    with StopSignals() as stop, ExitStack() as closing:
+        closing.callback(lambda: log_file is not None and log_file.close())  # after the engine's last impact
+        with Engine(scene, device=device, on_played=write if log_path else None, overwrite=overwrite) as engine:
+            if log_path is not None:  # once the outputs opened: one refused leaves the log as it was
+                log_file = open(log_path, "w", encoding="utf-8")  # noqa: SIM115
             bridge = OscBridge(engine.submit, engine.objects, host=host or osc.host,
                                port=osc.port if port is None else port, max_datagram=osc.max_datagram,
                                rate_hz=osc.rate_hz, burst=osc.burst, allow_remote=allow_remote, secret=secret)
@@ -131,6 +138,9 @@ def register_commands(app, bench):
         log: Path = typer.Option(None, metavar="FILE",
                                  help="Write each played impact (object, velocity, at, point, normal, output, "
                                  "peak, latency) to this file as it is played, one JSON line each."),
+        force: bool = typer.Option(False, "--force", help="Replace a --device wav:/csv: file or --log file that "
+                                   "exists and hapticfx did not write (its own are replaced anyway); without it "
+                                   "serve refuses before it listens."),
     ):
         """Receive impacts over OSC/UDP (docs/protocol.md) and render them on the scene's actuators.
 
@@ -142,7 +152,7 @@ def register_commands(app, bench):
         out = serve_scene(scene, host=host, port=port, device=device, stats_every=stats_every, duration=duration,
                           echo=lambda line: typer.echo(line, err=False) or sys.stdout.flush(),
                           allow_remote=allow_remote, secret=secret, warn=lambda line: typer.echo(line, err=True),
-                          log_path=log)
+                          log_path=log, overwrite=force)
         typer.echo(json.dumps(out))
         engine = out["engine"]
         if engine.get("close_errors") or engine["failed"]:

@@ -83,15 +83,11 @@ def play(
     With no output device available (a headless machine), the impact is written to a WAV
     file and a PNG picture in the current directory instead, and their names are printed.
     """
-    from ..actuators.files import check_overwrite
-    from ..atomic import file_name_part, user_path
-    from ..pipeline import Pipeline, stand_in
+    from ..atomic import file_name_part
+    from ..pipeline import Pipeline
 
     dev = _device(device)
-    virtual = stand_in(dev)
-    if virtual and virtual[1]:
-        check_overwrite(user_path(virtual[1]), force=force)
-    pipeline = Pipeline.from_effect(effect, device=dev)
+    pipeline = Pipeline.from_effect(effect, device=dev, overwrite=force)
     try:
         pipeline.open()
     except DeviceUnavailable as exc:
