@@ -28,6 +28,8 @@ def train(
                                           "validation RMSE per epoch) to this PNG."),
     release: bool = typer.Option(False, "--release", help="At the end, delete the resume state (Adam moments, RNG) "
                                  "and keep only model.safetensors + model.json, e.g. for shipping weights."),
+    force: bool = typer.Option(False, "--force", help="Replace a --curves file that hapticfx did not write (its own "
+                               "PNG is replaced anyway)."),
 ):
     """Train a neural interpolator on every drop of a dataset (or several: pre-training); writes model.safetensors,
     model.json and its velocity table. The shipped weights change only with --ship."""
@@ -38,6 +40,8 @@ def train(
 
     require_torch("`hapticfx train`")
     cfg = load_config(config)
+    if curves is not None:
+        _check_curves(curves, force=force)
     if ship and out is not None:
         raise EffectError("give --ship or --out, not both")
     if ship:
@@ -75,6 +79,18 @@ def train(
         if meta.get("init"):
             title += f", fine-tuned from weights pre-trained on {meta['init']['dataset']}"
         typer.echo(f"wrote {curves_png(curves, [(cfg.interpolator, meta)], title=title)}")
+
+
+def _check_curves(path: Path, *, force: bool) -> None:
+    """Refuse a --curves path the PNG could not be written to after training: another suffix, a directory, a
+    file hapticfx did not write (unless ``force``), a folder above it that is a file."""
+    from hapticfx.actuators.files import check_overwrite
+    from hapticfx.atomic import existing_folder
+
+    if path.suffix.lower() != ".png":
+        raise EffectError(f"--curves {path}: expected a .png file name, got {path.suffix or 'none'!r}")
+    check_overwrite(path, force=force)
+    existing_folder(path.parent)
 
 
 def _swap_in(weights: Path, shipped: Path) -> Path:

@@ -70,6 +70,22 @@ def test_learning_curves_say_where_training_started(tmp_path, syn_dataset):
     assert titles[1] == "convbilstm on synthetic, fine-tuned from weights pre-trained on synthetic"
 
 
+def test_a_curves_path_the_png_cannot_go_to_is_refused_before_training(tmp_path, syn_dataset):
+    cfg = tiny_config(tmp_path, syn_dataset, epochs=1)
+    (tmp_path / "mine.png").write_text("my picture")
+    (tmp_path / "cdir.png").mkdir()
+    (tmp_path / "a-file").write_text("x")
+    for curves, said in (("c.txt", "expected a .png file name, got '.txt'"),
+                         ("mine.png", "exists and was not written by hapticfx; use --force"),
+                         ("cdir.png", "is a directory, expected a file name"), ("a-file/c.png", "not a folder")):
+        r = _cli("train", str(cfg), "--quiet", "--curves", str(tmp_path / curves))
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and said in r.stderr, (curves, r.stderr)
+        assert not (tmp_path / "ck-convbilstm").exists(), curves  # refused before training
+    assert (tmp_path / "mine.png").read_text() == "my picture"
+    r = _cli("train", str(cfg), "--quiet", "--curves", str(tmp_path / "mine.png"), "--force")
+    assert r.returncode == 0 and (tmp_path / "mine.png").read_bytes()[:4] == b"\x89PNG", r.stderr
+
+
 def test_bench_interpolators_trains_networks_per_round_and_serves_them_from_tables(tmp_path, syn_dataset):
     rows = tmp_path / "rows.yaml"
     rows.write_text(yaml.safe_dump({
