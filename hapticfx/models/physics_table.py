@@ -16,8 +16,9 @@ object) is tabulated once over ``(0, v_max]``:
   becomes a straight line between its close knots, recorded in the table's
   ``unconverged`` list: a model serves velocities there by direct computation
   (:meth:`PhysicsTable.served_at`), not from the line;
-* below the first knot, the first knot's profile scaled by ``v / v_floor``
-  (continuous, silence at 0; the shape there is the first knot's).
+* below the first knot, the first knot's profile scaled by ``(v / v_floor)^a``, ``a`` the power law of the
+  first two knots' peaks (within :data:`BELOW_POWER`): continuous, silence at 0, the shape there the first
+  knot's (a contact's peak grows faster than the velocity: as ``v^1.2`` for a Hertzian one).
 
 The table records a ``source`` (a SHA-256 of everything the profiles depend
 on: the model's parameters, the object, the receiver, :data:`PHYSICS_VERSION`);
@@ -49,11 +50,12 @@ from ..interpolators.table import Interval, VelocityTable, tabulate_interval
 # Bump when the physics changes what a profile is for the same parameters (a table built before is then stale).
 PHYSICS_VERSION = 1
 FORMAT_NAME = "physics"
-FLOOR = 1.0 / 16  # the lowest knot, relative to v_max
+FLOOR = 1.0 / 256  # the lowest knot, relative to v_max
 RATIO = 2.0  # between neighbouring knots
 TOLERANCE = 4e-7  # of the larger neighbour's peak, at the probes
 MAX_DEGREE = 64  # per interval before it is split
 MAX_SPLITS = 3
+BELOW_POWER = (1.0, 2.0)  # the bounds of the power law below the first knot
 
 ProfileFn = Callable[[float], np.ndarray]  # velocity (m/s) -> profile (N,)
 
@@ -91,6 +93,10 @@ class PhysicsTable:
         self.unconverged = [(float(a), float(b)) for a, b in table.meta.get("unconverged", [])]
         self._scales = [float(scale(self.profiles[i], self.profiles[i + 1])) for i in range(len(ivs))]
         self.v_max = float(self.velocities[-1])
+        peaks = np.max(np.abs(self.profiles[:2]), axis=1)
+        power = math.log(peaks[1] / peaks[0]) / math.log(self.velocities[1] / self.velocities[0]) \
+            if np.all(peaks > 0) else 1.0
+        self._below = float(np.clip(power, *BELOW_POWER))
 
     @property
     def source(self) -> str:
@@ -109,7 +115,7 @@ class PhysicsTable:
                               "model.max_velocity_mps to render it")
         knot = self.velocities
         if v <= knot[0]:
-            return (v / knot[0]) * self.profiles[0]
+            return (v / knot[0]) ** self._below * self.profiles[0]
         i = min(int(np.searchsorted(knot, v, side="right")) - 1, len(knot) - 2)
         w = (v - knot[i]) / (knot[i + 1] - knot[i])
         out = (1.0 - w) * self.profiles[i] + w * self.profiles[i + 1]
