@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hapticfx.errors import EffectError
+from hapticfx.errors import EffectError, SignalError
 from hapticfx.interfaces import Impact
 from hapticfx.objects import PAPER_OBJECTS
 from hapticfx.params import BuildContext, parse_params
@@ -68,6 +68,11 @@ def test_material_and_stiffness_change_the_sound_of_it():
 @pytest.mark.parametrize("stiffness", [1e3, 1e10])
 def test_finite_and_bounded_for_extreme_inputs(mass, velocity, stiffness):
     model = build({"mass_kg": mass, "stiffness": stiffness, "duration_ms": 200.0, "max_velocity_mps": 20.0})
+    if (mass, velocity, stiffness) == (10.0, 20.0, 1e3):  # the softest contact cannot stop 10 kg at 20 m/s
+        with pytest.raises(SignalError, match=r"at 20 m/s the 10 kg object sinks \d+ mm into the receiver, past its "
+                                              r"110 mm dome"):
+            model.render(Impact("wood-beam", velocity))
+        return
     s = model.render(Impact("wood-beam", velocity))
     assert np.all(np.isfinite(s.samples))
     # the helmet (3.5 kg) cannot be accelerated beyond what the object's momentum allows per sample
@@ -79,6 +84,16 @@ def test_other_rate_and_custom_object_without_dimensions():
     model = build({"rate_hz": 8000.0, "mass_kg": 0.5, "duration_ms": 100.0}, object_id="", info=False)
     s = model.render(Impact("anvil", 2.0))
     assert s.rate_hz == 8000.0 and s.n_samples == 800 and s.peak > 0
+
+
+def test_an_object_that_sinks_through_the_dome_is_refused_not_rendered():
+    """10 t on k = 1e3 sank 122-128 mm into the 110 mm dome from 0.25 m/s, where the contact geometry breaks
+    (the dome's centre inside the block): its peak jumped 2,400-fold between 0.158 and 0.398 m/s, then fell."""
+    model = build({"mass_kg": 1e4, "stiffness": 1e3, "felt": "receiver", "max_velocity_mps": 100.0})
+    assert model.render(Impact("wood-beam", 0.158)).peak > 0  # 77 mm: deep, but the geometry holds
+    for v in (0.251, 1.0):
+        with pytest.raises(SignalError, match="past its 110 mm dome: beyond what the contact model describes"):
+            model.render(Impact("wood-beam", v))
 
 
 def test_effect_errors_name_file_and_key():

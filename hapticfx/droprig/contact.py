@@ -165,6 +165,19 @@ class DropScene:
         nx, ny = c * nbx - sn * nby, sn * nbx + c * nby
         return delta, px, py, nx, ny
 
+    def penetrations(self, states: np.ndarray) -> np.ndarray:
+        """:meth:`closest`'s penetration at each of ``states`` ``(n_state, n)``, vectorised."""
+        h, a, b = self.helmet, self.block.half_width, self.block.half_thickness
+        arm = h.pivot_height - h.dome_radius
+        cx, cy = -arm * np.sin(states[BE]), states[YH] - h.pivot_height + arm * np.cos(states[BE])
+        c, sn = np.cos(states[TH]), np.sin(states[TH])
+        dx, dy = cx - states[X], cy - states[Y]
+        bx, by = c * dx + sn * dy, -sn * dx + c * dy
+        dist = np.hypot(np.clip(bx, -a, a) - bx, np.clip(by, -b, b) - by)
+        inside = dist <= 1e-12 * (a + b)
+        dist = np.where(inside, -np.minimum(a - np.abs(bx), b - np.abs(by)), dist)
+        return h.dome_radius - dist
+
     def initial_state(self) -> np.ndarray:
         """The block at rest pose ``tilt``/``offset``, ``gap`` above the dome, falling at ``velocity``."""
         s = np.zeros(self.n_state)

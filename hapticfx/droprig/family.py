@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..errors import SignalError
 from ..objects import ObjectInfo
 from .contact import DropScene, material
 from .receiver import Receiver
@@ -86,7 +87,14 @@ class Strike:
         """:meth:`acceleration` of ``drop``, ``n`` samples at ``rate_hz`` from the first contact, less what the
         hold force alone does (``press``: that response, when it is known; else integrated here)."""
         scene = self.scene(info, drop, receiver)
-        out = self.acceleration(scene, scene.sample(n, rate_hz, rtol=rtol), rate_hz, azimuth=azimuth)
+        states = scene.sample(n, rate_hz, rtol=rtol)
+        deepest = float(np.max(scene.penetrations(states)))
+        if deepest >= receiver.dome_radius:  # the dome's centre inside the object: no contact geometry is left
+            raise SignalError(f"at {drop.velocity:g} m/s the {info.mass_kg:g} kg object sinks {deepest * 1e3:.0f} mm "
+                              f"into the receiver, past its {receiver.dome_radius * 1e3:.0f} mm dome: beyond what the "
+                              "contact model describes; stiffen the contact, lighten the object or lower "
+                              "max_velocity_mps")
+        out = self.acceleration(scene, states, rate_hz, azimuth=azimuth)
         if self.hold_n > 0.0 and drop.velocity > 0.0:
             if press is None:
                 press = self.response(info, replace(drop, velocity=0.0), receiver, n, rate_hz, rtol=rtol,
