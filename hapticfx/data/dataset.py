@@ -46,6 +46,14 @@ UNREADABLE = (OSError, ValueError, EOFError, KeyError, IndexError, TypeError, zi
               struct.error, NotImplementedError, SyntaxError, tokenize.TokenError, MemoryError, RuntimeError)
 
 
+def unreadable(exc: BaseException) -> str:
+    """Why an ``.npz`` could not be read, in a few words: numpy takes bytes that are not a zip (a damaged file)
+    for pickled data and says how to load it unsafely, which is not advice to give about a damaged file."""
+    if isinstance(exc, ValueError) and "pickled" in str(exc):
+        return "not an .npz archive of plain arrays"
+    return one_line(str(exc), 80)
+
+
 def resolve_dataset_path(ref: str | os.PathLike, *, relative_to: Path | None = None) -> Path:
     """The directory a dataset reference names (``builtin:NAME`` or a path)."""
     text = str(ref)
@@ -205,7 +213,7 @@ def load_npz(file: Path, required: tuple[str, ...]) -> dict[str, np.ndarray]:
     except DatasetError:
         raise
     except UNREADABLE as exc:
-        raise DatasetError(f"{file}: corrupt or unreadable ({one_line(str(exc), 80)})") from None
+        raise DatasetError(f"{file}: corrupt or unreadable ({unreadable(exc)})") from None
 
 
 def read_versioned_json(file: Path, *, format: str, version: int, error: type[HapticfxError]) -> dict:

@@ -46,8 +46,8 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 
 from ..atomic import atomic_path
-from ..data.dataset import UNREADABLE
-from ..errors import CheckpointError, SignalError, one_line
+from ..data.dataset import UNREADABLE, unreadable
+from ..errors import CheckpointError, SignalError
 from ..interfaces import Blend, Interpolator, Profile, Term
 from ..signal import valid_signal, valid_velocity
 from .residual import pull, scale, valid_pull
@@ -262,7 +262,7 @@ class VelocityTable:
                 arrays = {k: z[k] for k in z.files}
             meta = json.loads(str(arrays.pop("meta_json")))
         except UNREADABLE as exc:  # json.JSONDecodeError is a ValueError
-            raise CheckpointError(f"{path}: corrupt or unreadable velocity table ({one_line(str(exc), 80)})") from None
+            raise CheckpointError(f"{path}: corrupt or unreadable velocity table ({unreadable(exc)})") from None
         if not isinstance(meta, dict) or meta.get("format") != FORMAT:
             raise CheckpointError(f"{path}: not a {FORMAT} file")
         if meta.get("version") != VERSION:
