@@ -14,7 +14,7 @@ from hapticfx.board.emulator import AccelBoardEmulator
 from hapticfx.board.protocol import GY61, parse_hello, parse_sample
 from hapticfx.data.csv_import import read_csv_recordings
 from hapticfx.board.record import impact_velocity, record_drops
-from hapticfx.errors import DeviceError
+from hapticfx.errors import DeviceError, SignalError
 
 pytest.importorskip("serial")
 
@@ -115,6 +115,17 @@ def test_absent_or_silent_or_foreign_board(tmp_path):
     finally:
         os.close(master)
         os.close(slave)
+
+
+@pytest.mark.parametrize("object_id, height_m, message", [
+    ("../x", 0.8, "object id '../x' must be letters, digits"),  # wrote rec/../x_h0.8m_d00.csv, outside --out-dir
+    ("x", 0.0, "height_m must be above 0"),  # 0 m/s drops, every line of which `data import` then refused
+])
+def test_an_object_id_that_is_a_path_or_a_height_of_0_is_refused_before_recording(tmp_path, object_id, height_m,
+                                                                                   message):
+    with pytest.raises(SignalError, match=message):
+        record_drops("/dev/does-not-exist", object_id=object_id, height_m=height_m, drops=1, out_dir=tmp_path)
+    assert not list(tmp_path.parent.glob("x_h*"))
 
 
 def test_impact_velocity():

@@ -24,6 +24,7 @@ import numpy as np
 from ..atomic import atomic_path
 from ..data.csv_import import COLUMNS
 from ..errors import DeviceError, SignalError
+from ..objects import valid_object_id
 from ..signal import valid_number
 from .protocol import BAUD, SEQ_MODULO, BoardInfo, parse_hello, parse_sample
 
@@ -127,10 +128,13 @@ def record_drops(port: str, *, object_id: str, height_m: float, drops: int, out_
                  progress: Callable[[str], None] | None = None) -> list[Path]:
     """Record ``drops`` triggered drops from the board on ``port``; returns the CSV files written."""
     velocity = impact_velocity(height_m)
+    if velocity == 0.0:  # `data import` refuses every line of a 0 m/s drop: after the session is recorded
+        raise SignalError("height_m must be above 0 (the drop height in metres)")
     valid_number(threshold_g, name="threshold_g", minimum=1e-6)
     valid_number(timeout_s, name="timeout_s", minimum=1e-3)
-    if not object_id or "," in object_id or object_id != object_id.strip():
-        raise SignalError(f"object id {object_id!r} must be non-empty, without commas or surrounding spaces")
+    if not valid_object_id(object_id):  # it names the files: `../x` wrote outside --out-dir
+        raise SignalError(f"object id {object_id!r} must be letters, digits, '-', '_' or '.', not starting with a "
+                          "dot (it names the files and, imported, the dataset's object)")
     if drops < 1 or pre_trigger < 0 or n_samples <= pre_trigger + 1:
         raise SignalError(f"need drops >= 1 and n_samples > pre_trigger + 1, got drops={drops}, "
                           f"pre_trigger={pre_trigger}, n_samples={n_samples}")
