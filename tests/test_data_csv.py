@@ -155,6 +155,17 @@ def test_missing_file_and_existing_output(tmp_path):
     import_csv([f], tmp_path / "ds", overwrite=True)
 
 
+def test_a_spreadsheets_byte_order_mark_is_not_part_of_the_header(tmp_path):
+    """A file saved as "CSV UTF-8" by a spreadsheet starts with a BOM: `missing object; unexpected \ufeffobject`."""
+    f = tmp_path / "in.csv"
+    f.write_bytes(("\n".join([HEADER] + _rows()) + "\n").encode("utf-8-sig"))
+    assert open_dataset(import_csv([f], tmp_path / "ds")).raw("wood-beam")[1].shape == (2, 2, 200, 3)
+
+
+def test_a_velocity_above_the_limit_says_the_limit(tmp_path):
+    _bad(tmp_path, [HEADER] + _replace(_rows(), 0, 1, "1000"), r"line 2: velocity_mps 1000 is above 100$")
+
+
 def test_absurd_numbers_and_object_ids_are_refused(tmp_path):
     rows = _rows(velocities=(2.42,), drops=1)
     _bad(tmp_path, [HEADER] + _replace(list(rows), 5, 4, "1e308"), r"line 7: ax_g 1e\+308 is outside \[-10000, 10000\]")

@@ -83,7 +83,8 @@ def _number(text: str, column: str, where: str, problems: _Problems) -> float | 
         return None
     lo, hi = LIMITS[column]
     if not lo <= value <= hi:
-        problems.add(where, f"{column} {value:g} is outside [{lo:g}, {hi:g}]")
+        problems.add(where, f"{column} {value:g} is " + (f"outside [{lo:g}, {hi:g}]" if math.isfinite(lo) else
+                                                          f"above {hi:g}"))
         return None
     return value
 
@@ -94,7 +95,7 @@ def _read(file: Path, drops: dict, problems: _Problems) -> None:
     if not file.is_file():
         raise DatasetError(f"{file}: file not found")
     try:
-        handle = file.open(newline="", encoding="utf-8")
+        handle = file.open(newline="", encoding="utf-8-sig")  # a spreadsheet's byte-order mark is not a column
     except OSError as exc:
         raise DatasetError(f"{file}: cannot read ({exc})") from exc
     with handle:
