@@ -42,6 +42,13 @@ def test_export_then_validate_and_render(tmp_path, capsys, fmt, suffix):
     assert code == 2 and "exists; use --force" in err
 
 
+def test_an_output_named_for_another_format_is_refused(tmp_path, capsys):
+    """`--format ahap --out b.wav` wrote AHAP JSON into a file that players and `validate` take for a WAV."""
+    code, _, err = hfx(capsys, "export", str(BRICK), "--format", "ahap", "--out", str(tmp_path / "b.wav"))
+    assert code == 2 and err.count("\n") == 1 and "ahap files are named *.ahap" in err and "--out b.ahap" in err
+    assert not (tmp_path / "b.wav").exists()
+
+
 def test_export_a_folder_over_a_velocity_range(tmp_path, capsys):
     code, text, err = hfx(capsys, "export", BRICK, "--format", "haptic", "--out", tmp_path / "set",
                           "--velocities", "2:4:0.5")

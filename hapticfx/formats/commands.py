@@ -102,6 +102,9 @@ def export(
     fmt = format_named(format)
     options = ExportOptions(device=device_named(device), tolerance=tolerance, transients=transients)
     suffix = fmt.suffixes[0]
+    if velocities is None and not out.name.lower().endswith(tuple(fmt.suffixes)):  # read by its name
+        raise HapticfxError(f"{out}: {fmt.name} files are named *{' or *'.join(fmt.suffixes)}, which players and "
+                            f"`hapticfx validate` read it by; give --out {out.name.split('.')[0] or 'impact'}{suffix}")
     if source.suffix.lower() == ".wav":
         if velocities or velocity is not None:
             raise HapticfxError("--velocity and --velocities apply to effects, not to a WAV file")
