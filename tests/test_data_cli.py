@@ -152,14 +152,18 @@ def test_plot_replaces_its_own_png_and_not_a_users_file(dataset, tmp_path, capsy
     for _ in range(2):  # the second run replaces the plot the first wrote
         code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", png)
         assert code == 0, err
-    for name in ("n.png", "notes.txt"):
-        mine = tmp_path / name
-        mine.write_text("precious")
-        code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", mine)
-        assert code == 2 and err.count("\n") == 1 and f"{mine}: exists and was not written by hapticfx; use --force" in err
-        assert mine.read_text() == "precious"
+    mine = tmp_path / "n.png"
+    mine.write_text("precious")
+    code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", mine)
+    assert code == 2 and err.count("\n") == 1 and f"{mine}: exists and was not written by hapticfx; use --force" in err
+    assert mine.read_text() == "precious"
     code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", mine, "--force")
     assert code == 0 and mine.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    notes = tmp_path / "notes.txt"  # PNG data under another name, even with --force: refused
+    notes.write_text("precious")
+    code, _, err = run(capsys, "data", "plot", "wood-beam", "--dataset", dataset, "-o", notes, "--force")
+    assert code == 2 and err.count("\n") == 1 and "the plot is a PNG image; give --out a .png file" in err
+    assert notes.read_text() == "precious"
 
 
 def _spoil(dataset, what):

@@ -8,7 +8,7 @@ from typing import List, Optional
 import typer
 
 from ..cli.show import JSON_HELP
-from ..errors import DatasetError
+from ..errors import DatasetError, HapticfxError
 from ..progress import say
 
 DEFAULT_DATASET = "builtin:helmet-drops"
@@ -126,6 +126,8 @@ def plot(
     from ..actuators.files import check_overwrite
     from .plot import plot_object
 
+    if out.suffix.lower() != ".png":  # it writes PNG data whatever the name says
+        raise HapticfxError(f"{out}: the plot is a PNG image; give --out a .png file")
     check_overwrite(out, force=force)
     typer.echo(str(plot_object(_open(dataset), object, out, reducer=reducer, velocity=velocity)))
 
