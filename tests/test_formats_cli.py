@@ -42,6 +42,18 @@ def test_export_then_validate_and_render(tmp_path, capsys, fmt, suffix):
     assert code == 2 and "exists; use --force" in err
 
 
+def test_a_velocity_for_a_haptic_file_played_as_recorded_is_refused_not_ignored(tmp_path, capsys):
+    """`render b.ahap --velocity 3` said "at 3.00 m/s" and played the file as recorded."""
+    ahap = tmp_path / "b.ahap"
+    assert hfx(capsys, "export", str(BRICK), "--format", "ahap", "--out", str(ahap))[0] == 0
+    for command in ("render", "play"):
+        args = [command, str(ahap), "--velocity", "3"] + (["-o", str(tmp_path / "b.csv")] if command == "render" else
+                                                          ["--device", "memory"])
+        code, _, err = hfx(capsys, *args)
+        assert code == 2 and err.count("\n") == 1 and "plays as recorded at any velocity" in err, (command, err)
+    assert not (tmp_path / "b.csv").exists()
+
+
 def test_an_output_named_for_another_format_is_refused(tmp_path, capsys):
     """`--format ahap --out b.wav` wrote AHAP JSON into a file that players and `validate` take for a WAV."""
     code, _, err = hfx(capsys, "export", str(BRICK), "--format", "ahap", "--out", str(tmp_path / "b.wav"))

@@ -26,6 +26,14 @@ def _device(value: Optional[str]):
 FORCE_HELP = "Replace an output file that hapticfx did not write (its own WAV, PNG and CSV files are replaced anyway)."
 
 
+def _velocity_applies(pipeline, velocity: Optional[float]) -> None:
+    """Refuse a --velocity the effect would ignore (a haptic file played as recorded), rather than say it played."""
+    if velocity is not None and getattr(pipeline.model, "plays_as_recorded", False):
+        raise HapticfxError(f"{pipeline.effect.source}: plays as recorded at any velocity, so --velocity does not "
+                            "apply; to scale it by velocity, give an effect with model: {type: haptic-file, file: ..., "
+                            "reference_velocity_mps: V}")
+
+
 def _write_outputs(pipeline, delivery, outs: list[Path], *, force: bool) -> list[Path]:
     """Write a delivery to each of ``outs`` by its suffix (.wav, .csv, .png), all of them or none; returns them."""
     from ..actuators.files import check_overwrite
@@ -88,6 +96,7 @@ def play(
 
     dev = _device(device)
     pipeline = Pipeline.from_effect(effect, device=dev, overwrite=force)
+    _velocity_applies(pipeline, velocity)
     try:
         pipeline.open()
     except DeviceUnavailable as exc:
@@ -123,6 +132,7 @@ def render(
     from ..pipeline import Pipeline
 
     pipeline = Pipeline.from_effect(effect, device="memory")
+    _velocity_applies(pipeline, velocity)
     delivery = pipeline.render(velocity=velocity, object=object)
     _warn(delivery)
     written = _write_outputs(pipeline, delivery, [out], force=force)

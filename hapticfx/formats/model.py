@@ -54,6 +54,11 @@ class HapticFileModel(Model):
         self.device = device_named(params.device, base_dir=context.base_dir)
         self.decoded = fmt.read(self.path, self.device, rate_hz=params.rate_hz)
 
+    @property
+    def plays_as_recorded(self) -> bool:
+        """Whether every velocity renders the file as it is (no ``reference_velocity_mps``)."""
+        return self.params.reference_velocity_mps is None
+
     def render(self, impact: Impact) -> Signal:
         signal = self.decoded.signal
         if self.params.reference_velocity_mps is None:
