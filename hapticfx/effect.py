@@ -262,6 +262,9 @@ def effect_from_mapping(data: Any, *, source: str, base_dir: Path) -> Effect:
     if data is None:
         raise EffectError("the file is empty; an effect needs name, object, model and actuator", source=source)
     unknown = [k for k in data if k not in TOP_KEYS]
+    if unknown and "model" not in data and ("effects" in data or "actuators" in data):
+        raise EffectError("a scene (effects and actuators, no model), not an effect: run it with `hapticfx serve "
+                          "FILE` or hapticfx.Engine", source=source, key="(top level)")
     if unknown:
         raise EffectError(f"unknown key {preview(unknown[0])}; allowed: {', '.join(TOP_KEYS)}", source=source, key="(top level)")
     for required in ("name", "object", "model", "actuator"):

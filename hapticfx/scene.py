@@ -166,6 +166,9 @@ def scene_from_mapping(data: Any, *, source: str, base_dir: Path) -> Scene:
     if not isinstance(data, dict):
         raise EffectError(f"expected a mapping, got {type(data).__name__}", source=source, key="(top level)")
     unknown = [k for k in data if k not in TOP_KEYS]
+    if unknown and "model" in data and "effects" not in data:
+        raise EffectError("an effect (a model, no effects), not a scene: play it with `hapticfx play FILE`, or list "
+                          "it under a scene's effects", source=source, key="(top level)")
     if unknown:
         raise EffectError(f"unknown key {preview(unknown[0])}; allowed: {', '.join(TOP_KEYS)}", source=source, key="(top level)")
     for required in ("name", "effects"):

@@ -126,6 +126,21 @@ def test_a_profile_shorter_than_the_fades_is_refused_when_the_effect_opens(write
                               "least 12 ms (duration_ms)")
 
 
+def test_a_scene_given_as_an_effect_and_an_effect_given_as_a_scene_say_what_they_are(write_effect):
+    """They said `unknown key 'actuators'` and `unknown key 'object'`."""
+    from pathlib import Path
+
+    from hapticfx.engine import Engine
+
+    root = Path(__file__).resolve().parents[1]
+    with pytest.raises(EffectError, match=r"\(top level\): a scene \(effects and actuators, no model\), not an "
+                                          r"effect: run it with `hapticfx serve FILE`"):
+        load_effect(root / "scenes" / "earthquake_room.yaml")
+    with pytest.raises(EffectError, match=r"\(top level\): an effect \(a model, no effects\), not a scene: play it "
+                                          r"with `hapticfx play FILE`"):
+        Engine(write_effect(GOOD))
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(EffectError) as err:
         load_effect(tmp_path / "nope.yaml")
