@@ -54,9 +54,23 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
 
     base = Path(cfg.source).parent if cfg.source != "<config>" else None
     datasets = [open_dataset(ref, relative_to=base) for ref in cfg.datasets]
-    parts, targets, held = [], {}, set()
+    parts, targets, held, trained = [], {}, set(), set()
     for ds in datasets:
         objects = cfg.objects or ds.objects
+        unknown = [o for o in objects if o not in ds.objects]
+        if unknown:
+            raise EffectError(f"dataset {ds.name!r} has no object {unknown[0]!r}; it has: {', '.join(ds.objects)}",
+                              source=cfg.source, key="objects")
+        if ds.n_samples % int(cfg.model["steps"]):
+            raise EffectError(f"{ds.name}'s profiles of {ds.n_samples} samples cannot be cut into "
+                              f"{cfg.model['steps']} equal steps", source=cfg.source, key="model.steps")
+        if cfg.train_velocities is not None:
+            here = {v for o in objects for v in cfg.train_velocities if ds.bank(o, cfg.reducer).index_of(v) is not None}
+            if not here:
+                raise EffectError(f"none of {', '.join(f'{v:g}' for v in cfg.train_velocities)} m/s is a recorded "
+                                  f"velocity of {ds.name} (`hapticfx data info` lists them)", source=cfg.source,
+                                  key="train_velocities")
+            trained |= here
         holdout = {o: [v for v in cfg.holdout_velocities if ds.bank(o, cfg.reducer).index_of(v) is not None]
                    for o in objects}
         held.update(v for vs in holdout.values() for v in vs)
@@ -74,11 +88,13 @@ def config_triples(cfg: TrainConfig) -> tuple[list, DropTriples, dict]:
             part = pooled_triples(data, part, pooling(data), prefix)
         parts.append(part)
         targets.update({prefix + o: v for o, v in chosen.items()})
-    missed = [v for v in cfg.holdout_velocities if v not in held]
-    if missed:  # a velocity no object recorded is held out of nothing: an evaluation would see it trained on
-        raise EffectError(f"{missed[0]:g} m/s is no recorded velocity of any object of "
-                          f"{', '.join(d.name for d in datasets)} (`hapticfx data info` lists them)",
-                          source=cfg.source, key="holdout_velocities")
+    for key, listed, found in (("holdout_velocities", cfg.holdout_velocities, held),
+                               ("train_velocities", cfg.train_velocities or [], trained)):
+        missed = [v for v in listed if v not in found]
+        if missed:  # a holdout velocity no object recorded is held out of nothing: an evaluation would see it trained on
+            raise EffectError(f"{missed[0]:g} m/s is no recorded velocity of any object of "
+                              f"{', '.join(d.name for d in datasets)} (`hapticfx data info` lists them)",
+                              source=cfg.source, key=key)
     first = datasets[0]
     meta = {"name": first.name if len(datasets) == 1 else f"{first.name}+{len(datasets) - 1}",
             "ref": dataset_ref(first) if len(datasets) == 1 else None, "reducer": cfg.reducer,

@@ -273,6 +273,33 @@ def test_a_holdout_velocity_that_holds_nothing_out_is_an_error(tmp_path, drop_da
     assert str(err.value).startswith(f"{cfg.source}: {message}")
 
 
+@pytest.mark.parametrize("setting, message", [
+    ({"objects": ["nope"]}, "objects: dataset 'toy-drops' has no object 'nope'"),
+    ({"train_velocities": [9.9]}, "train_velocities: none of 9.9 m/s is a recorded velocity of toy-drops"),
+    ({"train_velocities": [3.1, 3.11]}, "train_velocities: 3.11 m/s is no recorded velocity"),
+])
+def test_objects_and_train_velocities_the_dataset_lacks_name_the_config_and_key(tmp_path, drop_dataset, setting,
+                                                                                message):
+    """Each said what was missing but named neither the file nor the key (or, 3.11, said nothing)."""
+    from hapticfx_neural.run import config_triples
+
+    cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=1))
+    for key, value in setting.items():
+        setattr(cfg, key, value)
+    with pytest.raises(EffectError) as err:
+        config_triples(cfg)
+    assert str(err.value).startswith(f"{cfg.source}: {message}")
+
+
+def test_steps_that_do_not_divide_the_profiles_name_the_config_and_key(tmp_path, drop_dataset):
+    from hapticfx_neural.run import config_triples
+
+    cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=1))
+    cfg.model = {**cfg.model, "steps": 7}
+    with pytest.raises(EffectError, match=r"model.steps: toy-drops's profiles of 500 samples cannot be cut into 7"):
+        config_triples(cfg)
+
+
 def test_noise_budget_tells_noise_from_a_learnable_change():
     """Pools around one profile: the blend's error is all sampling noise; a curved truth adds what is not."""
     from hapticfx_neural.bench.learnable import noise_budget
