@@ -162,6 +162,12 @@ def test_a_spreadsheets_byte_order_mark_is_not_part_of_the_header(tmp_path):
     assert open_dataset(import_csv([f], tmp_path / "ds")).raw("wood-beam")[1].shape == (2, 2, 200, 3)
 
 
+def test_a_rate_the_high_pass_leaves_nothing_of_is_refused_naming_the_file_and_line(tmp_path):
+    """10 Hz passed the rate check and then failed in preprocessing, naming no file: the high-pass cutoff 20.0 Hz
+    is not below the Nyquist frequency of 10.0 Hz."""
+    _bad(tmp_path, [HEADER] + _rows(rate=10.0, n=100), r"line 2: .*a rate of 10 Hz; expected above 40 Hz")
+
+
 def test_a_velocity_above_the_limit_says_the_limit(tmp_path):
     _bad(tmp_path, [HEADER] + _replace(_rows(), 0, 1, "1000"), r"line 2: velocity_mps 1000 is above 100$")
 
@@ -170,6 +176,7 @@ def test_absurd_numbers_and_object_ids_are_refused(tmp_path):
     rows = _rows(velocities=(2.42,), drops=1)
     _bad(tmp_path, [HEADER] + _replace(list(rows), 5, 4, "1e308"), r"line 7: ax_g 1e\+308 is outside \[-10000, 10000\]")
     fast = [r.replace(f",{t},", f",{float(t) * 1e-9:.17g},") for r in rows for t in [r.split(",")[3]]]
-    _bad(tmp_path, [HEADER] + fast, r"sample interval 1e-12 s is a rate of 1e\+12 Hz; expected 10 Hz to 1e\+06 Hz")
+    _bad(tmp_path, [HEADER] + fast, r"sample interval 1e-12 s is a rate of 1e\+12 Hz; expected above 40 Hz \(twice "
+                                    r"the high-pass\) to 1e\+06 Hz")
     _bad(tmp_path, [HEADER] + [r.replace("wood-beam", "../../etc/x") for r in rows],
          r"object '../../etc/x' must be 1-64 letters, digits")
