@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import threading
 import time
 from dataclasses import dataclass
@@ -17,7 +18,7 @@ from pathlib import Path
 from .actuators.virtual import CsvActuator, MemoryActuator, WavActuator
 from .atomic import user_path
 from .effect import Effect, Plan, check_effect, effective_limits, load_effect
-from .errors import DeviceError, EffectError, HapticfxError, PluginError
+from .errors import DeviceError, EffectError, HapticfxError, PluginError, preview
 from .interfaces import Actuator, ActuatorSpec, Impact, Model, SafetyLimits
 from .params import BuildContext
 from .registry import Registry
@@ -209,6 +210,8 @@ class Pipeline:
                     registry: Registry | None = None, overwrite: bool = False) -> "Pipeline":
         """Build from an effect file path (or a loaded :class:`Effect`)."""
         if not isinstance(effect, Effect):
+            if not isinstance(effect, (str, os.PathLike)):
+                raise EffectError(f"expected an effect file's path or an Effect, got {type(effect).__name__}")
             effect = load_effect(effect)
         return cls(effect, device=device, registry=registry, overwrite=overwrite)
 
@@ -256,6 +259,9 @@ class Pipeline:
 
     def _impact(self, velocity, object) -> Impact:
         v = self.effect.velocity_mps if velocity is None else valid_velocity(velocity)
+        if object is not None and (not isinstance(object, str) or not object.strip()):  # "" fell back to the effect's
+            raise EffectError(f"object {preview(object)}: expected an object id (none: the effect's "
+                              f"{self.effect.object_id!r})", source=self.effect.source)
         return Impact(object or self.effect.object_id, v, time.monotonic() - self._t0)
 
     def render(self, impact: Impact | None = None, *, velocity: float | None = None, object: str | None = None) -> Delivery:

@@ -141,6 +141,17 @@ def test_a_scene_given_as_an_effect_and_an_effect_given_as_a_scene_say_what_they
         Engine(write_effect(GOOD))
 
 
+def test_an_empty_object_id_and_no_effect_at_all_are_errors(write_effect):
+    """`--object ""` played the effect's own object; `Pipeline.from_effect(None)` was a TypeError."""
+    from hapticfx.pipeline import Pipeline
+
+    pipeline = Pipeline.from_effect(write_effect(GOOD), device="memory")
+    with pytest.raises(EffectError, match=r"object '': expected an object id \(none: the effect's 'concrete-brick'\)"):
+        pipeline.render(object="")
+    with pytest.raises(EffectError, match="expected an effect file's path or an Effect, got NoneType"):
+        Pipeline.from_effect(None)
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(EffectError) as err:
         load_effect(tmp_path / "nope.yaml")
