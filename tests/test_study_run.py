@@ -150,6 +150,20 @@ def test_a_wav_output_that_cannot_be_written_is_refused_before_the_session_start
     assert not out.exists()
 
 
+def test_a_file_the_user_wrote_at_a_wav_output_is_replaced_only_with_force(study_file, tmp_path, capsys):
+    """The engine refuses to replace a file hapticfx did not write; `study run` had no --force to say it may."""
+    wav, out = tmp_path / "x.wav", tmp_path / "r"
+    wav.write_text("precious")
+    run = ("study", "run", str(study_file), "--simulate", "--participant", "P01", "--device", f"wav:{wav}",
+           "--out", str(out))
+    assert _cli(*run) == 2
+    err = capsys.readouterr().err
+    assert "exists and was not written by hapticfx" in err and err.count("\n") == 1, err
+    assert wav.read_text() == "precious"
+    assert _cli(*run, "--force") == 0
+    assert wav.read_bytes()[:4] == b"RIFF"
+
+
 def test_a_port_in_use_is_refused_naming_it_before_anything_is_written(study_file, tmp_path, capsys):
     out = tmp_path / "r"
     with socket.socket() as busy:

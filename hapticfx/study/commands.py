@@ -18,7 +18,7 @@ def _device(value: Optional[str]):
 
 
 def run_one(study_path: Path, participant: str, out: Path, *, device, port: int, simulate: bool, pace_s: float,
-            echo) -> int:
+            echo, force: bool = False) -> int:
     """Run (or resume) one participant's session; returns the number of answers given in this run."""
     from ..pipeline import stand_in
     from .player import StimulusPlayer
@@ -35,7 +35,8 @@ def run_one(study_path: Path, participant: str, out: Path, *, device, port: int,
         if not simulate:  # the page's port first: one in use is refused before anything is written
             server = StudyServer(None, port=port)
             stack.callback(server.stop)
-        player = stack.enter_context(StimulusPlayer(study, schedule, device=device, realtime=realtime))
+        player = stack.enter_context(StimulusPlayer(study, schedule, device=device, realtime=realtime,
+                                                    overwrite=force))
         session = Session(study, participant, out, player, study_text=Path(study_path).read_bytes(),
                           simulated=simulate, enforce_breaks=not simulate)
         stack.callback(session.close)
@@ -89,6 +90,8 @@ def run(
                                                help="With --simulate: simulate P01..PN (default: the study's simulate.participants)."),
     pace: float = typer.Option(0.0, metavar="SECONDS", min=0.0, callback=finite,
                               help="With --simulate: seconds between answers."),
+    force: bool = typer.Option(False, "--force", help="With --device wav:PATH or csv:PATH: replace a file there "
+                               "that hapticfx did not write (its own are replaced anyway)."),
 ):
     """Run one participant through a study: stimuli play on the actuators, answers come from a local web page.
 
@@ -112,7 +115,8 @@ def run(
         ids = [participant]
     try:
         for pid in ids:
-            run_one(study, pid, folder, device=dev, port=port, simulate=simulate, pace_s=pace, echo=typer.echo)
+            run_one(study, pid, folder, device=dev, port=port, simulate=simulate, pace_s=pace, echo=typer.echo,
+                    force=force)
     except KeyboardInterrupt:
         typer.echo("interrupted; every answer given is saved: run the same command to resume", err=True)
         raise typer.Exit(130)

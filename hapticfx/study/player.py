@@ -47,12 +47,14 @@ class StimulusPlayer:
     (a real device); stand-ins (``memory``, ``wav:``) need no waiting.
     """
 
-    def __init__(self, study: Study, schedule: list[Trial], *, device: str | int | None = None, realtime: bool = True):
+    def __init__(self, study: Study, schedule: list[Trial], *, device: str | int | None = None, realtime: bool = True,
+                 overwrite: bool = False):
         from ..engine import Engine
 
         self.realtime = realtime
         self._played: queue.SimpleQueue = queue.SimpleQueue()
-        self.engine = Engine(study_scene(study, schedule), device=device, on_played=self._played.put)
+        self.engine = Engine(study_scene(study, schedule), device=device, on_played=self._played.put,
+                             overwrite=overwrite)
         self._failed = 0  # impacts the engine failed so far (a failure ends the play, so none goes unseen)
 
     def play(self, slot: Slot, gap_s: float) -> list:
