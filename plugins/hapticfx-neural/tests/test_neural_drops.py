@@ -291,15 +291,6 @@ def test_objects_and_train_velocities_the_dataset_lacks_name_the_config_and_key(
     assert str(err.value).startswith(f"{cfg.source}: {message}")
 
 
-def test_steps_that_do_not_divide_the_profiles_name_the_config_and_key(tmp_path, drop_dataset):
-    from hapticfx_neural.run import config_triples
-
-    cfg = load_config(tiny_config(tmp_path, drop_dataset, epochs=1))
-    cfg.model = {**cfg.model, "steps": 7}
-    with pytest.raises(EffectError, match=r"model.steps: toy-drops's profiles of 500 samples cannot be cut into 7"):
-        config_triples(cfg)
-
-
 def test_noise_budget_tells_noise_from_a_learnable_change():
     """Pools around one profile: the blend's error is all sampling noise; a curved truth adds what is not."""
     from hapticfx_neural.bench.learnable import noise_budget

@@ -244,12 +244,15 @@ def test_training_on_a_cuda_gpu_resumes_a_cpu_run_and_serves_from_the_cpu(tmp_pa
 
 
 def test_steps_must_divide_the_profile_length(tmp_path, syn_dataset):
-    from hapticfx.errors import DatasetError
+    """Said without the config file or key, before d6e805d."""
+    from hapticfx.errors import EffectError
 
     cfg = load_config(tiny_config(tmp_path, syn_dataset))
     cfg.model["steps"] = 7
-    with pytest.raises(DatasetError, match="cannot be cut into model.steps=7"):
+    with pytest.raises(EffectError, match=r"model.steps: synthetic's profiles of 100 samples cannot be cut into 7 "
+                                          r"equal steps") as err:
         train_from_config(cfg, progress=False)
+    assert str(err.value).startswith(f"{cfg.source}: ")
 
 
 def test_tiny_config_table_covers_every_architecture():
