@@ -96,6 +96,20 @@ def test_an_object_that_sinks_through_the_dome_is_refused_not_rendered():
             model.render(Impact("wood-beam", v))
 
 
+def test_a_contact_that_needs_too_many_solver_steps_is_given_up_with_a_clear_error(monkeypatch):
+    """10 t at k = 1e10 on a 0.1 kg receiver with no damping ran at about 180,000 right-hand sides a second for
+    minutes (killed at 120 s); the solver now stops at MAX_EVALUATIONS (1e6, about 5 s here). A small cap stands
+    in for it, on an ordinary impact."""
+    from hapticfx.droprig import family
+
+    model = build({})
+    assert model.render(Impact("wood-beam", 3.0)).peak > 0
+    monkeypatch.setattr(family, "MAX_EVALUATIONS", 50)
+    with pytest.raises(SignalError, match=r"the contact needed more than 50 solver steps \(a 0.\d+ kg object at 3.5 "
+                                          r"m/s on k = 3e\+06\): too stiff or heavy"):
+        model.render(Impact("wood-beam", 3.5))
+
+
 def test_effect_errors_name_file_and_key():
     with pytest.raises(EffectError, match=r"fx.yaml: model.material: unknown material 'jelly'"):
         build({"material": "jelly"})

@@ -102,7 +102,8 @@ class DropScene:
     ``gravity`` (m/s^2) the acceleration of gravity on the block (the helmet
     always rests on its support under its own weight), ``max_fall`` (m) the furthest the block can fall below
     where it starts: with :attr:`gravity` it bounds the block's speed, and so the solver's steps, by energy
-    (inf: by falling for the whole run).
+    (inf: by falling for the whole run). ``max_evaluations`` (None: no limit): the right-hand sides the solvers
+    may call before the integration is given up with a :class:`SignalError` (a render that would take minutes).
     """
 
     block: Block
@@ -116,6 +117,7 @@ class DropScene:
     gap: float = 2e-4
     gravity: float = G
     max_fall: float = math.inf
+    max_evaluations: int | None = None
 
     def __post_init__(self):
         valid_number(self.block.mass, name="mass_kg", minimum=1e-6, maximum=1e4)
@@ -218,9 +220,14 @@ class DropScene:
         silent = [0.0] * len(shapes)
         closest = self._closest
         sqrt, sin, cos, hypot, atan2 = math.sqrt, math.sin, math.cos, math.hypot, math.atan2
+        cap = math.inf if self.max_evaluations is None else self.max_evaluations
 
         def f(t, s):
             scene.evaluations += 1
+            if scene.evaluations > cap:  # raised through the solver: it stops at once
+                raise SignalError(f"the contact needed more than {cap:,} solver steps (a {m:g} kg object at "
+                                  f"{scene.velocity:g} m/s on k = {k:g}): too stiff or heavy a contact to integrate "
+                                  "in time; soften it, lighten the object or lower the velocity")
             x, y, th, vx, vy, om, yh, vh, be, vb = s[:JY].tolist()
             # the dome centre (DropScene.dome_centre) and the point of the block closest to it (DropScene._closest)
             cx, cy = neg_arm * sin(be), yh - pivot + arm * cos(be)
