@@ -269,6 +269,24 @@ def test_serve_refuses_at_start_an_output_it_would_replace_or_cannot_write(tmp_p
     assert serve("--device", "memory", "--log", log).returncode == 0  # a log serve wrote is its own
 
 
+def test_serve_that_cannot_listen_leaves_the_last_sessions_log_as_it_was(tmp_path):
+    """The log was opened (emptied) once the outputs opened, before the port was bound: a port in use, or a
+    remote host refused, left an empty log where the last session's was."""
+    import socket
+
+    scene = tmp_path / "s.yaml"
+    scene.write_text(SCENE.format(wav=tmp_path / "o.wav", rate=0, burst=1))
+    log = tmp_path / "last.jsonl"
+    log.write_text(_played_log_line())
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as busy:
+        busy.bind(("127.0.0.1", 0))
+        for args in (("--port", str(busy.getsockname()[1])), ("--port", "0", "--host", "0.0.0.0")):
+            r = subprocess.run([sys.executable, "-m", "hapticfx", "serve", str(scene), "--device", "memory", "--log",
+                                str(log), "--duration", "0.1", *args], capture_output=True, text=True, timeout=60)
+            assert r.returncode == 2 and r.stderr.count("\n") == 1, (args, r.stderr)
+            assert log.read_text() == _played_log_line(), args
+
+
 def _played_log_line() -> str:
     from types import SimpleNamespace
 

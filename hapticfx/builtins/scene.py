@@ -81,11 +81,15 @@ def serve_scene(scene_path: Path, *, host: str | None, port: int | None, device:
     with StopSignals() as stop, ExitStack() as closing:
         closing.callback(lambda: log_file is not None and log_file.close())  # after the engine's last impact
         with Engine(scene, device=device, on_played=write if log_path else None, overwrite=overwrite) as engine:
-            if log_path is not None:  # once the outputs opened: one refused leaves the log as it was
-                log_file = open(log_path, "w", encoding="utf-8")  # noqa: SIM115
             bridge = OscBridge(engine.submit, engine.objects, host=host or osc.host,
                                port=osc.port if port is None else port, max_datagram=osc.max_datagram,
                                rate_hz=osc.rate_hz, burst=osc.burst, allow_remote=allow_remote, secret=secret)
+            if log_path is not None:  # once the outputs opened and the port is bound: a refusal leaves it as it was
+                try:
+                    log_file = open(log_path, "w", encoding="utf-8")  # noqa: SIM115
+                except BaseException:
+                    bridge.stop()
+                    raise
             with bridge:
                 if bridge.remote:
                     (warn or echo)(_remote_warning(bridge.address, secret))
