@@ -23,16 +23,29 @@ if TYPE_CHECKING:
     from .data.dataset import Dataset
 
 
+MAX_POINT_M = 10.0  # a contact point lies on the head: farther from its centre than this is not one
+
+
 def valid_vector(value, *, name: str, unit: bool = False) -> tuple[float, float, float] | None:
-    """``value`` as three finite floats (None stays None); ``unit``: scaled to length 1 (a zero vector is refused)."""
+    """``value`` as three finite floats (None stays None); ``unit``: scaled to length 1 (a zero vector is refused),
+    else a point of the head frame, each coordinate within :data:`MAX_POINT_M` metres of its centre."""
     if value is None:
         return None
+    try:
+        items = list(value) if not isinstance(value, (str, bytes, np.ndarray)) else None
+    except TypeError:
+        items = None
+    if items is not None and any(isinstance(v, (bool, np.bool_, str, bytes)) for v in items):  # "1" and True as numbers
+        raise SignalError(f"{name} must be three numbers, got {preview(value)}")
     try:
         x = np.asarray(value, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise SignalError(f"{name} must be three numbers, got {preview(value)}") from None
     if x.shape != (3,) or not np.all(np.isfinite(x)):
         raise SignalError(f"{name} must be three finite numbers, got {preview(value)}")
+    if not unit and np.max(np.abs(x)) > MAX_POINT_M:
+        raise SignalError(f"{name} must lie within {MAX_POINT_M:g} m of the head's centre (head frame, metres), "
+                          f"got {preview(value)}")
     if unit:
         big = float(np.max(np.abs(x)))  # scaled first: the norm of (1.7e308, ...) would overflow to inf
         scaled = x / big if big > 0.0 else x

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from .errors import HapticfxError
+from .interfaces import MAX_POINT_M
 from .signal import MAX_AT_S, MAX_VELOCITY_MPS
 
 log = logging.getLogger(__name__)
@@ -56,7 +57,8 @@ DROP_REASONS = (
     "wrong_address",   # a well-formed message to an address we do not serve
     "unauthorized",    # /<secret>/hapticfx/impact with a wrong secret, or the plain address from another machine
     "wrong_types",     # right address, type tags not one of the documented forms
-    "bad_value",       # velocity negative, non-finite or above 100 m/s, channel < -1, non-finite or huge time, non-finite point, normal
+    "bad_value",       # velocity negative, non-finite or above 100 m/s, channel < -1, non-finite or huge time, non-finite
+                       # point or normal, a point over MAX_POINT_M from the head's centre, a zero normal
     "unknown_object",  # object id not in the scene
     "queue_full",      # the engine's queue was full
     "engine_refused",  # the engine rejected it for another reason (closed, invalid)
@@ -247,6 +249,8 @@ def parse_impact(tags: str, args: list | None, *, at: float | None = None) -> Im
     if at is not None and not (math.isfinite(at) and abs(at) <= MAX_AT_S):
         raise OscDecodeError("bad_value", f"time {at:g} is not a finite number of seconds within {MAX_AT_S:g}")
     point = _vector(args[4:7], "point") if len(args) > 4 else None
+    if point is not None and max(map(abs, point)) > MAX_POINT_M:  # not on a head: the spatialiser's norms overflowed
+        raise OscDecodeError("bad_value", f"point {point} is not within {MAX_POINT_M:g} m of the head's centre")
     normal = _vector(args[7:10], "normal") if len(args) > 7 else None
     if normal is not None and math.hypot(*normal) < 1e-9:
         raise OscDecodeError("bad_value", "normal is zero")

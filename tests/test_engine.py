@@ -130,7 +130,11 @@ def test_point_and_normal_ride_on_the_impact_and_bad_ones_are_refused(tmp_path, 
     playbacks = []
     engine = Engine(scene(tmp_path), registry=registry, on_played=playbacks.append)
     assert engine.impact("brick", 3.0, at=1.0, point=(0.0, 0.05, 0.12), normal=(0, 0, 2))
-    for bad in ({"point": (0, 1)}, {"point": (0, float("nan"), 1)}, {"normal": (0, 0, 0)}, {"normal": "up"}):
+    # a point 1e160 m away overflowed the spatialiser's norms and played on two sites whatever its direction;
+    # ("1", "2", "3") and (True, False, True) were taken for numbers
+    for bad in ({"point": (0, 1)}, {"point": (0, float("nan"), 1)}, {"normal": (0, 0, 0)}, {"normal": "up"},
+                {"point": (-1e160, 0, 0)}, {"point": (0, 11.0, 0)}, {"point": ("1", "2", "3")},
+                {"point": (True, False, True)}):
         with pytest.raises(SignalError):
             engine.impact("brick", 3.0, **bad)
     engine.close()

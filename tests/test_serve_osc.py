@@ -88,6 +88,7 @@ def test_bundle_is_its_own_reason():
     ("sfi", ["a", 1.0, -2], "bad_value"),
     ("sfid", ["a", 1.0, 0, float("nan")], "bad_value"),
     ("sfid", ["a", 1.0, 0, 1e305], "bad_value"),  # once an OverflowError traceback in the WAV output
+    ("sfidddd", ["a", 1.0, -1, 0.0, -1e160, 0.0, 0.0], "bad_value"),  # played on two sites whatever its direction
 ])
 def test_parse_impact_rejects(tags, args, reason):
     with pytest.raises(OscDecodeError) as err:
