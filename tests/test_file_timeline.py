@@ -154,6 +154,20 @@ def test_a_flood_of_overlapping_impacts_holds_the_limits_in_the_files_time(tmp_p
     assert x.size / rate == pytest.approx(0.598 + longest, abs=1e-3)  # back to back it was 300 x longest
 
 
+def test_a_files_limiter_acting_on_the_sum_is_in_stats(tmp_path):
+    """Impacts that each keep under the limit and sum over it in the file: the file's limiter held, and stats()
+    said no limit acted (the file outputs had no limiter_report)."""
+    from pathlib import Path
+
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "earthquake_room.yaml"
+    with Engine(scene, device=f"wav:{tmp_path / 'x.wav'}") as engine:
+        for _ in range(30):
+            engine.impact("steel-plate", 5.0, at=1.0)
+        stats = engine.close(timeout=300)
+    assert not any(p.limited for p in engine.played())  # no impact was limited on its own
+    assert any(a.startswith("peak 1 set by actuator") for a in stats["outputs"]["actuators.helmet"]["limits_acted"])
+
+
 def test_the_files_of_one_session_line_up(tmp_path):
     """Two outputs, two files: both start at the session's first impact, so each impact lies at its time."""
     scene = tmp_path / "two.yaml"

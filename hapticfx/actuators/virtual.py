@@ -19,6 +19,7 @@ from ..interfaces import Actuator, ActuatorSpec
 from ..params import BuildContext, doc
 from ..signal import Signal
 from .files import DEFAULT_WAV_FORMAT, CsvWriter, WavWriter, check_overwrite
+from ..safety import LimiterReport
 from .timeline import Timeline, TimelineProbe
 
 
@@ -102,6 +103,7 @@ class _FileActuator(Actuator):
         self.limits = self.spec.limits
         self._timeline: Timeline | None = None
         self._closed_counts: dict[str, int] = {}
+        self._closed_report: LimiterReport | None = None
         self._failed: DeviceError | None = None
         self._lock = threading.Lock()
 
@@ -150,6 +152,14 @@ class _FileActuator(Actuator):
             if timeline is not None:
                 timeline.close()
                 self._closed_counts = {"placed_late": timeline.late, "cut_at_file_bound": timeline.cut}
+                self._closed_report = timeline.limiter.report() if timeline.limiter is not None else None
+
+    def limiter_report(self) -> LimiterReport:
+        """What the file's limiter did to the sum so far (the whole file, once closed)."""
+        with self._lock:
+            t = self._timeline
+            report = t.limiter.report() if t is not None and t.limiter is not None else self._closed_report
+        return report if report is not None else LimiterReport()
 
     def losses(self) -> dict[str, int]:
         """Impacts moved later than their time (``placed_late``) or cut at the file's bound."""
