@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
+import os
 import queue
 import threading
 import time
@@ -182,6 +184,19 @@ def _sounds_at(actuator: Actuator, job: "_Job", now: float) -> float:
     return job.timeline_s if actuator.takes_time and not actuator.takes_received else now
 
 
+MAX_QUEUE = 1_000_000  # as a scene's engine.queue_size
+MAX_KEEP_LAST = 1_000_000  # summaries of played impacts kept (about 1 KB each)
+
+
+def _count(value, name: str, lo: int, hi: int) -> int:
+    """``value`` as a whole number in ``[lo, hi]``: memory stays bounded, and 2.5 is not quietly 2."""
+    whole = (not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+             and value == int(value))
+    if not whole or not lo <= int(value) <= hi:
+        raise HapticfxError(f"{name} must be a whole number in [{lo}, {hi:,}], got {preview(value)}")
+    return int(value)
+
+
 def _pending(counts: dict) -> int:
     """Impacts queued and not yet played, failed or cancelled (waiting, or rendering now)."""
     return counts["queued"] - counts["rendered"] - counts["failed"] - counts["cancelled"]
@@ -211,8 +226,18 @@ class Engine:
     def __init__(self, scene: Scene | str | Path, *, device: str | int | None = None,
                  queue_size: int | None = None, on_played: Callable[[Playback], None] | None = None,
                  keep_last: int = 10_000, registry: Registry | None = None, overwrite: bool = False):
+        if not isinstance(scene, (Scene, str, os.PathLike)):
+            raise EffectError(f"expected a scene file's path or a Scene, got {type(scene).__name__}")
+        if on_played is not None and not callable(on_played):  # else every impact failed in its callback
+            raise HapticfxError(f"on_played must be callable (it is given each Playback), got {preview(on_played)}")
+        if device is not None and (isinstance(device, bool) or not isinstance(device, (str, int))):
+            raise HapticfxError(f"device must be a name, an index or a stand-in ('memory', 'wav:PATH'), got "
+                                f"{preview(device)}")
+        if not isinstance(overwrite, bool):
+            raise HapticfxError(f"overwrite must be True or False, got {preview(overwrite)}")
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
-        size = self.scene.engine.queue_size if queue_size is None else int(valid_number(queue_size, name="queue_size", minimum=1))
+        size = self.scene.engine.queue_size if queue_size is None else _count(queue_size, "queue_size", 1, MAX_QUEUE)
+        keep_last = _count(keep_last, "keep_last", 0, MAX_KEEP_LAST)
         self.close_timeout_s = self.scene.engine.close_timeout_s
         self.on_played = on_played
         self._pipelines: dict[str, Pipeline] = {}
@@ -223,7 +248,7 @@ class Engine:
         self._lock = threading.Lock()
         self._callback_errors = 0
         self._close_errors: dict[str, str] = {}
-        self._last: deque[Played] = deque(maxlen=int(valid_number(keep_last, name="keep_last", minimum=0)))
+        self._last: deque[Played] = deque(maxlen=keep_last)
         self._log = RateLimitedLog(log)
         self._closed = False
         self._t0 = time.monotonic()

@@ -7,6 +7,7 @@ states they describe without timing anything.
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import threading
@@ -426,3 +427,22 @@ effects:
     with pytest.raises(EffectError, match=r"head\.sites: the head's sites 'crown' and 'back' play into one output"):
         Engine(scene)
     assert not (tmp_path / "out.wav").exists()
+
+
+@pytest.mark.parametrize("kwargs, said", [
+    ({"queue_size": 1e12}, "queue_size must be a whole number in [1, 1,000,000]"),  # filled 235 MiB in 3 s
+    ({"queue_size": 2.5}, "queue_size must be a whole number"),  # quietly 2
+    ({"keep_last": 1e18}, "keep_last must be a whole number in [0, 1,000,000]"),
+    ({"on_played": 5}, "on_played must be callable"),  # every impact then failed in its callback
+    ({"device": True}, "device must be a name, an index or a stand-in"),  # was sound-card index 1
+    ({"overwrite": "no"}, "overwrite must be True or False"),  # was true
+])
+def test_engine_arguments_that_would_misbehave_are_refused(tmp_path, registry, kwargs, said):
+    with pytest.raises(HapticfxError, match=re.escape(said)):
+        Engine(scene(tmp_path), registry=registry, **kwargs)
+
+
+@pytest.mark.parametrize("given", [None, 123, b"scene.yaml", ["scene.yaml"]])
+def test_a_scene_that_is_neither_a_path_nor_a_scene_is_an_effect_error(given):
+    with pytest.raises(EffectError, match="expected a scene file's path or a Scene, got"):
+        Engine(given)
