@@ -319,6 +319,14 @@ def _kernel_drops(sock: socket.socket) -> int | None:
 Submit = Callable[[ImpactMessage, float], bool]
 
 
+def _setting(value, name: str, lo: float, hi: float, *, whole: bool = False) -> None:
+    """Refuse a bridge setting that is not a (whole) number in ``[lo, hi]``."""
+    number = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    if not number or not lo <= value <= hi or (whole and value != int(value)):
+        raise HapticfxError(f"{name} must be {'a whole number' if whole else 'a number'} in [{lo:g}, {hi:g}], got "
+                            f"{value!r}"[:200])
+
+
 class OscBridge:
     """Receives OSC datagrams (messages or bundles) on a UDP socket and submits impacts.
 
@@ -333,6 +341,13 @@ class OscBridge:
     def __init__(self, submit: Submit, known_objects, *, host: str = "127.0.0.1", port: int = 9000,
                  max_datagram: int = 1024, rate_hz: float = 2000.0, burst: int = 500,
                  recv_buffer: int = 4 << 20, allow_remote: bool = False, secret: str | None = None):
+        # as a scene's events.osc section allows them: inf or NaN here killed the receiver or lifted the limit
+        _setting(max_datagram, "max_datagram", 16, 65507, whole=True)
+        _setting(rate_hz, "rate_hz", 0.0, 1e9)
+        _setting(burst, "burst", 1, 1_000_000, whole=True)
+        _setting(port, "port", 0, 65535, whole=True)
+        if not isinstance(host, str):
+            raise HapticfxError(f"host must be an address such as '127.0.0.1', got {type(host).__name__}")
         self.submit = submit
         self._secret_address = None if secret is None else f"/{check_secret(secret)}{IMPACT_ADDRESS}".encode()
         self.known_objects = frozenset(known_objects)

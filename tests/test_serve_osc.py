@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import random
+import re
 import socket
 import struct
 import time
@@ -333,3 +334,19 @@ def test_a_bundle_nested_too_deep_drops_only_what_is_below_the_limit():
         stats = bridge.stats()
     assert [m.velocity for m in rec.messages] == [1.0, 2.0, 3.0, 4.0, 5.0]
     assert (stats["received"], stats["accepted"], stats["dropped"]["bundle"], stats["dropped_total"]) == (6, 5, 1, 1)
+
+
+@pytest.mark.parametrize("setting, said", [
+    ({"burst": float("inf")}, "burst must be a whole number"),  # the receiver thread died at the first datagram
+    ({"rate_hz": float("nan")}, "rate_hz must be a number in [0, 1e+09]"),  # the rate limit was off
+    ({"rate_hz": -5}, "rate_hz must be a number in [0, 1e+09]"),  # off as well (0 is the documented 'off')
+    ({"max_datagram": -1}, "max_datagram must be a whole number in [16, 65507]"),  # every datagram oversize
+    ({"port": "9000"}, "port must be a whole number in [0, 65535]"),  # a bare TypeError
+    ({"host": None}, "host must be an address"),
+])
+def test_bridge_settings_outside_what_a_scene_allows_are_refused(setting, said):
+    from hapticfx.errors import HapticfxError
+    from hapticfx.osc import OscBridge
+
+    with pytest.raises(HapticfxError, match=re.escape(said)):
+        OscBridge(lambda message, received: True, {"a"}, **{"port": 0, **setting})
