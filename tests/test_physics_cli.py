@@ -38,7 +38,9 @@ def test_data_synth_writes_a_readable_dataset_and_refuses_to_overwrite(tmp_path,
 @pytest.mark.parametrize("argv,message", [
     (("--objects", "anvil"), "unknown object 'anvil'"),
     (("--velocities", "2,fast"), "--velocities must be comma-separated numbers"),
-    (("--velocities", "0,2"), "velocities must be > 0"),
+    (("--velocities", "0,2"), "--velocities: 0 m/s is outside 0.05-50 m/s"),
+    # said once the simulation had started, and of a drop's varied velocity, not the one typed
+    (("--velocities", "1e9,1e10"), "--velocities: 1e+09 m/s is outside 0.05-50 m/s, the drop rig's range"),
 ])
 def test_data_synth_bad_input_is_one_line(tmp_path, capsys, argv, message):
     code, _, err = run(capsys, "data", "synth", tmp_path / "x", "--drops", 1, *argv)

@@ -61,6 +61,7 @@ def synth(
     """
     from ..objects import PAPER_OBJECTS, builtin_object
     from . import synth as sim
+    from .spec import SPEC_VELOCITIES
 
     started = time.perf_counter()
     if heldout is not None:
@@ -104,6 +105,10 @@ def synth(
         infos = list(PAPER_OBJECTS.values()) if objects == "all" else [
             builtin_object(o.strip(), key="--objects") for o in objects.split(",") if o.strip()]
         vs = list(sim.PAPER_VELOCITIES) if velocities is None else _floats(velocities, option="--velocities")
+        far = [v for v in vs if not SPEC_VELOCITIES[0] <= v <= SPEC_VELOCITIES[1]]
+        if far:  # said before anything is simulated, as typed (a drop's velocity varies around it)
+            raise DatasetError(f"--velocities: {far[0]:g} m/s is outside {SPEC_VELOCITIES[0]:g}-"
+                               f"{SPEC_VELOCITIES[1]:g} m/s, the drop rig's range (as in a spec file)")
         drops = drops or sim.BUILTIN_DROPS
         command = (f"hapticfx data synth {out} --objects {','.join(i.id for i in infos)} "
                    f"--velocities {','.join(f'{v:g}' for v in vs)} --drops {drops} --seed {seed}")

@@ -45,6 +45,8 @@ from .receiver import RECEIVERS, Receiver, ShellMode
 from .sensor import Accelerometer
 from .synth import BUILTIN_DROPS, BUILTIN_SEED, Rig, Variation
 
+SPEC_VELOCITIES = (0.05, 50.0)  # m/s: the impact velocities a drop-rig spec (and `data synth --velocities`) takes
+
 
 @dataclass(frozen=True)
 class SynthSpec:
@@ -209,5 +211,6 @@ def _objects(data: dict, rig_cfg: dict, source: str) -> tuple[list[ObjectInfo], 
                                   _number(o.get("mass_kg"), source, f"{where}.mass_kg", minimum=1e-4, maximum=100.0),
                                   tuple(_number(d, source, f"{where}.dimensions_mm", minimum=0.0, maximum=5000.0)
                                         for d in dims), material))
-        velocities[o["id"]] = [_number(v, source, f"{where}.velocities_mps", minimum=0.05, maximum=50.0) for v in vs]
+        velocities[o["id"]] = [_number(v, source, f"{where}.velocities_mps", minimum=SPEC_VELOCITIES[0],
+                                       maximum=SPEC_VELOCITIES[1]) for v in vs]
     return objects, velocities, Rig(helmet=helmet, sensor=sensor)
