@@ -38,7 +38,7 @@ def valid_vector(value, *, name: str, unit: bool = False) -> tuple[float, float,
     if items is not None and any(isinstance(v, (bool, np.bool_, str, bytes)) for v in items):  # "1" and True as numbers
         raise SignalError(f"{name} must be three numbers, got {preview(value)}")
     try:
-        x = np.asarray(value, dtype=float)
+        x = np.asarray(value if items is None else items, dtype=float)
     except (TypeError, ValueError, OverflowError):
         raise SignalError(f"{name} must be three numbers, got {preview(value)}") from None
     if x.shape != (3,) or not np.all(np.isfinite(x)):

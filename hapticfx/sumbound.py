@@ -14,8 +14,8 @@ silenced (counted in the report).
 
 from __future__ import annotations
 
+import bisect
 import threading
-from collections import deque
 
 import numpy as np
 
@@ -36,7 +36,7 @@ class SumBound:
         self._peak = min(c.peak for c in every)
         self._rms = sorted({(c.rms, max(1, int(round(c.rms_window_s * self.rate_hz)))) for c in every})
         self._reach_s = max(w for _, w in self._rms) / self.rate_hz + slack_s
-        self._sounding: deque[tuple[float, float, float, tuple[float, ...]]] = deque()  # (end, start, peak, rms)
+        self._sounding: list[tuple[float, float, float, tuple[float, ...]]] = []  # (end, start, peak, rms), by end
         self._latest = -np.inf  # the latest end placed
         self._lock = threading.Lock()
         self._events = 0
@@ -69,10 +69,8 @@ class SumBound:
                 self._events += 1
                 self._least = min(self._least, gain)
             self._latest = max(self._latest, end)
-            self._sounding.append((end, start, peak * gain, tuple(r * gain for r in rms)))
-            self._sounding = deque(sorted(self._sounding))
-            while self._sounding and self._sounding[0][0] < self._latest - HORIZON_S:
-                self._sounding.popleft()
+            bisect.insort(self._sounding, (end, start, peak * gain, tuple(r * gain for r in rms)))
+            del self._sounding[:bisect.bisect_left(self._sounding, (self._latest - HORIZON_S,))]
         return x * gain
 
     def report(self) -> LimiterReport:

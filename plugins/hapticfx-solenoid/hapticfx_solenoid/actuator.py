@@ -115,7 +115,7 @@ class SolenoidActuator(Actuator):
         self._window: DutyWindow | None = None
         self._max_on_ms = 0
         self._on_until_ms = 0
-        self._stretch_from_ms = 0  # when the coil's current run of pulses began (see _fire)
+        self._run_from_ms = 0  # when the coil's current run of pulses began (see _fire)
         self._lock = threading.Lock()  # one command on the line at a time, whoever calls play()
         self._answering = True  # false once a command failed: close() then does not wait for a reply
 
@@ -158,7 +158,7 @@ class SolenoidActuator(Actuator):
         if board["window_ms"] * budget_ms > board["budget_ms"] * window_ms:  # board allows a lower duty cycle
             window_ms, budget_ms = board["window_ms"], board["budget_ms"]
         self._window = DutyWindow(budget_ms, window_ms)
-        self._on_until_ms = self._stretch_from_ms = 0
+        self._on_until_ms = self._run_from_ms = 0
         self.report = SolenoidReport()
 
     def close(self) -> None:
@@ -238,8 +238,8 @@ class SolenoidActuator(Actuator):
         # limiter counts a pulse): the run, its short gaps counted as on, keeps to the on-time limit. Without
         # this, pulses fired back to back 1 ms apart kept the coil on for seconds.
         if now >= self._on_until_ms + PULSE_GAP_MS:
-            self._stretch_from_ms = now
-        max_on_ms = self._max_on_ms - (now - self._stretch_from_ms)
+            self._run_from_ms = now
+        max_on_ms = self._max_on_ms - (now - self._run_from_ms)
         if max_on_ms < self.params.min_pulse_ms:
             self.report.refused_on_time += 1
             return
