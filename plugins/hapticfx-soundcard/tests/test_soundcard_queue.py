@@ -185,22 +185,44 @@ def test_without_libpulse_the_queue_says_what_to_install(monkeypatch):
 # that a loaded machine's scheduling delays do not use up, and record with a capture buffer as long.
 AHEAD_S = 0.05
 CAPTURE_LATENCY_S = 0.25
+ATTEMPTS = 3
+
+
+def starved(rec, *actuators) -> bool:
+    """Whether the machine starved one of ``actuators``' streams (an underflow, or an audio callback
+    later than its buffer) or the capture ``rec`` overflowed: such a recording holds the machine's
+    stall, not where an impact was written (docs/benchmarks.md, "Underflows against the machine's own
+    stalls")."""
+    return rec.overflows > 0 or any(a.underflows or a.late_callbacks for a in actuators)
+
+
+def unstarved(record):
+    """``record()`` -> ``(starved, result)``, made again, up to ATTEMPTS times, while it was starved.
+    What the streams lost is still asserted, on the recording that is kept."""
+    for _ in range(ATTEMPTS):
+        was_starved, result = record()
+        if not was_starved:
+            return result
+    pytest.fail(f"the machine starved the stream or the capture in each of {ATTEMPTS} recordings")
 
 
 @pytest.mark.soundserver
 def test_an_impact_is_heard_ahead_of_playback_not_behind_the_queue(soundserver):
     """A 200 ms queue, yet each click is heard about `ahead` (50 ms) after play(): written over the queue."""
-    with VibroTransducer(VibroTransducer.Params(queue=0.2, ahead=AHEAD_S), BuildContext(device="default")) as act:
-        with LoopbackRecorder(RATE, latency=CAPTURE_LATENCY_S) as rec:
-            time.sleep(0.3)
-            calls = []
-            for _ in range(10):
-                calls.append(rec.now())
-                act.play(Signal(click(RATE), RATE))
-                time.sleep(0.1)
-            time.sleep(0.3 + CAPTURE_LATENCY_S)
-        x, t = rec.capture.timeline(0)
-        assert act.underflows == 0 and act.losses() == {}
+    def record():
+        with VibroTransducer(VibroTransducer.Params(queue=0.2, ahead=AHEAD_S), BuildContext(device="default")) as act:
+            with LoopbackRecorder(RATE, latency=CAPTURE_LATENCY_S) as rec:
+                time.sleep(0.3)
+                calls = []
+                for _ in range(10):
+                    calls.append(rec.now())
+                    act.play(Signal(click(RATE), RATE))
+                    time.sleep(0.1)
+                time.sleep(0.3 + CAPTURE_LATENCY_S)
+            return starved(rec, act), (calls, rec.capture.timeline(0), act.losses())
+
+    calls, (x, t), lost = unstarved(record)
+    assert lost == {}
     heard = onsets(x, t)
     assert len(heard) == 10
     latency = heard - np.array(calls)
@@ -220,20 +242,25 @@ def test_an_impact_is_heard_ahead_after_it_was_received_not_after_it_was_rendere
     monkeypatch.setattr(queuestream, "SOONEST_S", soonest_s)
     ctx = {"device": "default"}
     params = VibroTransducer.Params(queue=0.15, ahead=AHEAD_S)
-    with VibroTransducer(params, BuildContext(**ctx, channel=0)) as late, \
-            VibroTransducer(params, BuildContext(**ctx, channel=1)) as now:
-        with LoopbackRecorder(RATE, latency=CAPTURE_LATENCY_S) as rec:
-            time.sleep(0.3)
-            delays = []
-            for _ in range(8):
-                received = time.perf_counter()
-                late.play(Signal(click(RATE), RATE), received=received - rendered_s)
-                delays.append(time.perf_counter() - received)  # at most this between `received` and late's write
-                now.play(Signal(click(RATE), RATE), received=received)
-                time.sleep(0.1)
-            time.sleep(0.3 + CAPTURE_LATENCY_S)
-        assert late.underflows == 0 and late.losses() == {}
-    heard = [onsets(*rec.capture.timeline(ch)) for ch in (0, 1)]
+
+    def record():
+        with VibroTransducer(params, BuildContext(**ctx, channel=0)) as late, \
+                VibroTransducer(params, BuildContext(**ctx, channel=1)) as now:
+            with LoopbackRecorder(RATE, latency=CAPTURE_LATENCY_S) as rec:
+                time.sleep(0.3)
+                delays = []
+                for _ in range(8):
+                    received = time.perf_counter()
+                    late.play(Signal(click(RATE), RATE), received=received - rendered_s)
+                    delays.append(time.perf_counter() - received)  # at most this between `received` and late's write
+                    now.play(Signal(click(RATE), RATE), received=received)
+                    time.sleep(0.1)
+                time.sleep(0.3 + CAPTURE_LATENCY_S)
+            return starved(rec, late, now), (delays, [rec.capture.timeline(ch) for ch in (0, 1)], late.losses())
+
+    delays, timelines, lost = unstarved(record)
+    assert lost == {}
+    heard = [onsets(*timeline) for timeline in timelines]
     assert len(heard[0]) == len(heard[1]) == 8
     earlier = heard[1] - heard[0]
     # each is written at the first 64-frame quantum at or after its position (up to 1.3 ms either way)
