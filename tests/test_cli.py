@@ -232,6 +232,26 @@ def test_a_number_option_with_a_range_refuses_nan_and_infinity(tmp_path, args):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_ctrl_c_while_the_command_starts_is_one_line_not_a_traceback():
+    """A Ctrl-C before the command line interface is imported: a KeyboardInterrupt raised when typer is
+    looked up stands in for a signal at that instant (a real one cannot be timed to it). The command's
+    entry point is the one pyproject.toml installs."""
+    import tomllib
+
+    scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts["hapticfx"] == "hapticfx.launch:main"
+    stand_in = ("import sys\n"
+                "class CtrlC:\n"
+                "    def find_spec(self, name, path=None, target=None):\n"
+                "        if name == 'typer':\n"
+                "            raise KeyboardInterrupt\n"
+                "sys.meta_path.insert(0, CtrlC())\n"
+                "from hapticfx.launch import main\n"
+                "main()\n")
+    r = subprocess.run([sys.executable, "-c", stand_in, "--help"], capture_output=True, text=True, timeout=60)
+    assert (r.returncode, r.stderr, r.stdout) == (130, "aborted\n", "")
+
+
 def test_version_names_hapticfx_and_its_plugins():
     r = hfx("--version")
     assert r.returncode == 0 and r.stdout.startswith("hapticfx 0.1.0") and "hapticfx-soundcard" in r.stdout
