@@ -218,6 +218,17 @@ def test_tables_reads_every_bank_before_it_rewrites_any_table(dataset, capsys):
     assert {p: p.read_bytes() for p in (dataset / "tables").iterdir()} == tables
 
 
+def test_tables_leaves_a_built_in_dataset_as_it_shipped(capsys):
+    from hapticfx.data.dataset import BUILTIN_DIR
+
+    shipped = BUILTIN_DIR / "helmet-drops" / "tables"
+    before = {p: p.stat().st_mtime_ns for p in shipped.iterdir()}
+    code, _, err = run(capsys, "data", "tables", "builtin:helmet-drops")
+    assert code == 2 and err.count("\n") == 1
+    assert "builtin:helmet-drops: ships with hapticfx" in err and f"cp -r {shipped.parent} DIR" in err
+    assert {p: p.stat().st_mtime_ns for p in shipped.iterdir()} == before
+
+
 def test_import_names_a_folder_as_a_folder_and_info_says_how_to_make_a_held_out_set(dataset, tmp_path, capsys,
                                                                                      monkeypatch):
     import shutil

@@ -193,16 +193,20 @@ def pick(
     typer.echo(str(set_representative(Path(dataset), object, velocity, drop, progress=say)))
 
 
-def tables(dataset: str = typer.Argument(..., help="Dataset directory (its tables/ folder is rewritten).")):
+def tables(dataset: str = typer.Argument(..., help="Dataset directory (its tables/ folder is rewritten; not builtin:NAME).")):
     """Fit the ensemble and ensemble-warp interpolators to a dataset's drops and write their tables (one per reducer).
 
     `data synth`, `data import`, `data record` and `data pick` write them already; run this for a
     dataset written by an older hapticfx, so that effects load it without fitting.
     """
     from ..interpolators.fitted import write_tables
-    from .dataset import open_dataset
+    from .dataset import BUILTIN_PREFIX, open_dataset
 
-    write_tables(open_dataset(dataset), progress=say)
+    ds = open_dataset(dataset)
+    if dataset.startswith(BUILTIN_PREFIX):  # not the installed package's files
+        raise DatasetError(f"{dataset}: ships with hapticfx, its tables fitted with it; to fit them again, copy it "
+                           f"and give the copy: cp -r {ds.path} DIR && hapticfx data tables DIR")
+    write_tables(ds, progress=say)
 
 
 def bench_reducers(
